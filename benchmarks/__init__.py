@@ -1,0 +1,1 @@
+"""Benchmark suite: conditions and sweeps, metrics, runner and executors, results store, report, CLI."""

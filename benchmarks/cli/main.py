@@ -1,0 +1,46 @@
+"""The ``scenesim`` console script: one parser, one sub-command module each.
+
+Each module in ``_COMMANDS`` defines ``add_parser(subparsers)`` that registers its
+sub-command and sets ``func(args) -> int`` as the handler.  The CLI lives in the top
+layer (benchmarks) so that it may import every package without the lower layers
+importing upward.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from scenesim.errors import ScenesimError
+
+_COMMANDS = ("bench", "simulate", "enhance", "data", "rir")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="scenesim",
+        description="Simulate hands-free phone scenes and benchmark speech enhancers.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in _COMMANDS:
+        importlib.import_module(f"benchmarks.cli.{name}").add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except ScenesimError as exc:
+        # Our own errors are user-facing: one clear line, no traceback.
+        print(f"scenesim: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("scenesim: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Speech enhancers for scenesim and their plugin registry."""

@@ -1,0 +1,260 @@
+"""The enhancer plugin contract (contract.md, "The enhancer plugin contract").
+
+An enhancer is a class with
+
+* ``name`` (registry name, e.g. ``"eb"``) and ``version`` (bumped when outputs change),
+* a frozen ``Params`` dataclass (subclass of :class:`Params`) whose fields are all
+  defaulted and validated in ``__post_init__``,
+* ``tags`` (:class:`Tags`: channels in/out, geometry, streaming, latency, fs),
+* ``process(x, fs) -> Result`` on a ``(n_channels, n_samples)`` float array, and
+* optionally streaming ``init_state(fs)`` / ``process_block(block, state) -> (out, state)``.
+
+Time alignment: ``output[:, n]`` depends on input up to sample ``n``; a filter bank that
+needs look-ahead declares it as ``tags.latency_samples`` and its output is delayed by
+exactly that much (batch output equals the concatenated streaming output, same length
+as the input).  Metrics undo the declared latency before comparing with a reference.
+
+Shadow filtering (algorithms.md section 8): every built-in enhancer is linear once its
+adapted quantities are fixed.  ``Result.replay(component)`` applies the *same*
+time-varying operation (beta trajectory, gain mask) to a component of the input
+(speech-only or noise-only image), so output SNR is measured without guessing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import typing
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from scenesim.errors import ParameterError
+from scenesim.validate import check_fs, check_signal
+
+
+@dataclass(frozen=True)
+class Params:
+    """Base of every enhancer's parameter dataclass: JSON round trip and strict construction.
+
+    Subclasses are ``@dataclass(frozen=True)`` with every field defaulted, and validate in
+    ``__post_init__`` with the helpers of :mod:`scenesim.validate` (never ``assert``).
+    """
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of the fields (JSON-serialisable for numbers, strings, bools, tuples)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]):
+        """Build from a mapping; unknown keys raise :class:`ParameterError` naming them.
+
+        Lists (as JSON gives them back) are turned into tuples where the field is a tuple.
+        """
+        known = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ParameterError(unknown[0], values[unknown[0]], "one of " + ", ".join(known))
+        converted = {}
+        for key, value in values.items():
+            default = known[key].default
+            if isinstance(value, list) and isinstance(default, tuple):
+                value = tuple(value)
+            converted[key] = value
+        return cls(**converted)
+
+    @classmethod
+    def from_json(cls, text: str):
+        return cls.from_dict(json.loads(text))
+
+    @classmethod
+    def coerce_strings(cls, values: Mapping[str, str]) -> dict[str, Any]:
+        """Convert ``k=v`` strings from a command line to the field types (``--param alpha=0.9``)."""
+        hints = typing.get_type_hints(cls)
+        known = {f.name for f in dataclasses.fields(cls)}
+        out: dict[str, Any] = {}
+        for key, text in values.items():
+            if key not in known:
+                raise ParameterError(key, text, "one of " + ", ".join(sorted(known)))
+            out[key] = _parse_value(key, text, hints.get(key, str))
+        return out
+
+
+def _parse_value(key: str, text: str, hint) -> Any:
+    origin = typing.get_origin(hint)
+    args = [a for a in typing.get_args(hint) if a is not type(None)]
+    if origin is typing.Union or (origin is not None and str(origin) == "<class 'types.UnionType'>"):
+        if text.lower() in ("none", "null") and len(args) < len(typing.get_args(hint)):
+            return None
+        hint = args[0] if args else str
+    try:
+        if hint is bool:
+            if text.lower() in ("1", "true", "yes", "on"):
+                return True
+            if text.lower() in ("0", "false", "no", "off"):
+                return False
+            raise ValueError(text)
+        if hint is int:
+            return int(text)
+        if hint is float:
+            return float(text)
+        if hint is str:
+            return text
+        return json.loads(text)
+    except (ValueError, json.JSONDecodeError):
+        raise ParameterError(key, text, f"a value of type {getattr(hint, '__name__', hint)}") from None
+
+
+@dataclass(frozen=True)
+class Tags:
+    """What an enhancer needs and promises; the runner and the conformance suite read these.
+
+    Attributes
+    ----------
+    channels_in : int
+        Number of input channels ``process`` accepts (exactly).  A 1-channel enhancer in
+        a 2-mic sweep is fed the reference mic (channel 0).
+    channels_out : int
+        Number of output channels.
+    needs_geometry : bool
+        True if the params carry array geometry (``spacing_m``) the runner must set from the scene.
+    streaming : bool
+        True if ``init_state`` / ``process_block`` are implemented.
+    latency_samples : int
+        Output delay in samples relative to the input (see module docstring).
+    supported_fs : tuple of int or None
+        Sampling rates accepted (Hz); None means any.
+    replayable : bool
+        True if ``Result.replay`` is exact shadow filtering; False for black-box plugins,
+        which the benchmark measures by phase inversion instead.
+    """
+
+    channels_in: int
+    channels_out: int = 1
+    needs_geometry: bool = False
+    streaming: bool = False
+    latency_samples: int = 0
+    supported_fs: tuple[int, ...] | None = None
+    replayable: bool = True
+
+
+@dataclass
+class Result:
+    """What ``process`` returns.
+
+    Attributes
+    ----------
+    output : ndarray, shape (n_out, n_samples)
+        The enhanced signal, float64, same length as the input.
+    trace : dict of str -> ndarray
+        Adapted quantities worth plotting or replaying (``"beta"`` per sample, ``"gain"``
+        per frame and bin, ...).  Shapes are documented by each enhancer.
+    """
+
+    output: np.ndarray
+    trace: dict[str, np.ndarray] = field(default_factory=dict)
+    _replay: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+
+    def replay(self, component) -> np.ndarray:
+        """Apply the same time-varying linear operation that produced ``output`` to ``component``.
+
+        ``component`` has the input's shape ``(n_channels_in, n_samples)``; returns
+        ``(n_out, n_samples)``.  ``replay(mixture)`` reproduces ``output`` (to 1e-9).
+        """
+        if self._replay is None:
+            raise NotImplementedError("this enhancer's result does not support replay")
+        return self._replay(component)
+
+
+class Enhancer:
+    """Base class for enhancers; subclasses set ``name``, ``version``, ``Params`` and implement
+    ``tags`` and ``_process`` (and ``_init_state`` / ``_process_block`` when streaming).
+
+    ``process`` and ``process_block`` validate their input here, once, so every plugin
+    gets the same clear errors; subclasses receive a float64 ``(n_channels, n)`` array
+    they must not modify.
+    """
+
+    name: ClassVar[str] = ""
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = ""
+    Params: ClassVar[type[Params]] = Params
+
+    def __init__(self, params: Params | None = None, **overrides: Any):
+        if params is None:
+            params = self.Params(**overrides)
+        elif overrides:
+            params = dataclasses.replace(params, **overrides)
+        if not isinstance(params, self.Params):
+            raise ParameterError("params", params, f"an instance of {self.Params.__qualname__}")
+        self._params = params
+
+    # -- description -----------------------------------------------------------------
+    @property
+    def params(self) -> Params:
+        return self._params
+
+    @property
+    def tags(self) -> Tags:  # pragma: no cover - every enhancer overrides
+        raise NotImplementedError
+
+    @property
+    def spec(self) -> dict[str, Any]:
+        """``{"name", "version", "params"}``: what a results row records about this enhancer."""
+        return {"name": self.name, "version": self.version, "params": self._params.to_dict()}
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{k}={v!r}" for k, v in self._params.to_dict().items())
+        return f"{type(self).__name__}({fields})"
+
+    def __eq__(self, other) -> bool:
+        return type(self) is type(other) and self._params == other._params
+
+    def __hash__(self) -> int:
+        return hash((type(self), self._params))
+
+    # -- batch -----------------------------------------------------------------------
+    def process(self, x, fs) -> Result:
+        """Enhance ``x`` (``(channels_in, n_samples)``, any real dtype) sampled at ``fs`` Hz."""
+        x, fs = self.check_input(x, fs)
+        return self._process(x, fs)
+
+    def _process(self, x: np.ndarray, fs: int) -> Result:  # pragma: no cover
+        raise NotImplementedError
+
+    # -- streaming -------------------------------------------------------------------
+    def init_state(self, fs) -> Any:
+        """Fresh state for a stream at ``fs`` Hz; independent streams need independent states."""
+        if not self.tags.streaming:
+            raise NotImplementedError(f"enhancer {self.name!r} does not stream")
+        fs = check_fs(fs, supported=self.tags.supported_fs)
+        return self._init_state(fs)
+
+    def process_block(self, block, state) -> tuple[np.ndarray, Any]:
+        """Process one block ``(channels_in, n_block)``; returns ``(out (n_out, n_block), new_state)``.
+
+        The passed ``state`` may be updated in place or replaced; always use the returned one.
+        """
+        if not self.tags.streaming:
+            raise NotImplementedError(f"enhancer {self.name!r} does not stream")
+        block = check_signal(block, name="block", n_channels=self.tags.channels_in, min_samples=0)
+        return self._process_block(block, state)
+
+    def _init_state(self, fs: int) -> Any:  # pragma: no cover
+        raise NotImplementedError
+
+    def _process_block(self, block: np.ndarray, state: Any):  # pragma: no cover
+        raise NotImplementedError
+
+    # -- helpers ---------------------------------------------------------------------
+    def check_input(self, x, fs) -> tuple[np.ndarray, int]:
+        """Validate ``x`` and ``fs`` against ``tags``; returns ``(float64 array, int fs)``."""
+        tags = self.tags
+        fs = check_fs(fs, supported=tags.supported_fs)
+        x = check_signal(x, name="x", n_channels=tags.channels_in)
+        return x, fs
