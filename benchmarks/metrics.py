@@ -1,0 +1,269 @@
+"""Pure metric functions: SNR, segmental SNR, SI-SDR, PESQ, STOI/ESTOI, latency alignment.
+
+Every function takes 1-D signals (or ``(1, n)`` rows), never mutates them, and floors
+every division so silence gives a finite number (or a :class:`MetricError` where the
+metric is undefined, e.g. PESQ without an utterance).  See algorithms.md section 8.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from math import gcd
+
+import numpy as np
+from scipy.signal import resample_poly
+
+from scenesim.errors import MetricError, ParameterError
+from scenesim.validate import check_fs, check_int, check_positive
+
+#: Power floor (per-sample mean square) used in every ratio: about -300 dB re full scale.
+POWER_FLOOR = 1e-30
+#: PESQ (P.862) needs at least 1/4 s of signal at its own rate.
+PESQ_MIN_S = 0.25
+#: Peak magnitude below which a signal counts as silent for PESQ/STOI.
+SILENCE_PEAK = 1e-10
+
+
+def _as_1d(x, name: str) -> np.ndarray:
+    """``x`` as a float64 1-D array; accepts ``(n,)`` or ``(1, n)``; rejects NaN/Inf."""
+    arr = np.asarray(x)
+    if arr.dtype.kind not in "fiu":
+        raise ParameterError(name, arr, "a real-valued numeric array")
+    if arr.ndim == 2 and arr.shape[0] == 1:
+        arr = arr[0]
+    if arr.ndim != 1:
+        raise ParameterError(name, arr, "a 1-D signal (n_samples,) or a (1, n_samples) row")
+    if arr.size == 0:
+        raise ParameterError(name, arr, "at least 1 sample")
+    arr = arr.astype(np.float64, copy=False)
+    if not np.all(np.isfinite(arr)):
+        raise ParameterError(name, arr, "finite values only (no NaN or Inf)")
+    return arr
+
+
+def _pair(reference, estimate, names=("reference", "estimate")) -> tuple[np.ndarray, np.ndarray]:
+    ref = _as_1d(reference, names[0])
+    est = _as_1d(estimate, names[1])
+    if ref.shape != est.shape:
+        raise ParameterError(names[1], est, f"the same length as {names[0]} ({ref.size} samples)")
+    return ref, est
+
+
+def _power_db_ratio(num: float, den: float) -> float:
+    return 10.0 * math.log10(max(num, POWER_FLOOR) / max(den, POWER_FLOOR))
+
+
+# -- energy ratios -----------------------------------------------------------------------
+
+
+def snr_db(signal, noise) -> float:
+    """Signal-to-noise ratio over the whole signals, in dB.
+
+    ``SNR = 10 log10( sum(signal**2) / sum(noise**2) )``; both mean squares are floored at
+    :data:`POWER_FLOOR` so silence gives a large finite number, never NaN/Inf.  Any shape
+    (all channels and samples are pooled); both arrays must have the same shape.
+    """
+    s = np.asarray(signal, dtype=np.float64)
+    n = np.asarray(noise, dtype=np.float64)
+    if s.shape != n.shape or s.size == 0:
+        raise ParameterError("noise", n, f"a non-empty array shaped like signal {s.shape}")
+    if not (np.all(np.isfinite(s)) and np.all(np.isfinite(n))):
+        raise ParameterError("signal", s, "finite values only (no NaN or Inf)")
+    return _power_db_ratio(float(np.mean(s * s)), float(np.mean(n * n)))
+
+
+def segmental_snr_db(
+    reference, estimate, *, fs, frame_s: float = 0.02, clamp: tuple[float, float] = (-10.0, 35.0)
+) -> float:
+    """Segmental SNR in dB: mean over non-overlapping frames of the clamped frame SNR.
+
+    ``segSNR = mean_m clip( 10 log10( sum_m s^2 / sum_m (s - y)^2 ), lo, hi )``
+    (Quackenbush et al. 1988; Hansen & Pellom 1998 clamp -10..35 dB).  Every full frame
+    counts, silent ones included (they clamp to ``lo``); a trailing partial frame is dropped.
+    Not scale invariant: an enhancer's gain in the look direction shows up here.
+
+    Parameters
+    ----------
+    reference, estimate : array, shape (n,)
+        Clean reference ``s`` and estimate ``y``, time aligned, same length.
+    fs : int
+        Sampling rate in Hz.
+    frame_s : float
+        Frame length in seconds (20 ms).
+    clamp : (float, float)
+        Lower and upper clamp of each frame's SNR in dB.
+    """
+    ref, est = _pair(reference, estimate)
+    fs = check_fs(fs)
+    frame_s = check_positive("frame_s", frame_s)
+    lo, hi = (float(c) for c in clamp)
+    if not lo < hi:
+        raise ParameterError("clamp", clamp, "(lo, hi) with lo < hi")
+    frame = max(1, int(round(frame_s * fs)))
+    n_frames = ref.size // frame
+    if n_frames == 0:
+        raise MetricError(
+            f"segmental SNR needs at least one {frame}-sample frame; got {ref.size} samples"
+        )
+    s = ref[: n_frames * frame].reshape(n_frames, frame)
+    e = s - est[: n_frames * frame].reshape(n_frames, frame)
+    num = np.maximum(np.mean(s * s, axis=1), POWER_FLOOR)
+    den = np.maximum(np.mean(e * e, axis=1), POWER_FLOOR)
+    return float(np.mean(np.clip(10.0 * np.log10(num / den), lo, hi)))
+
+
+def si_sdr_db(reference, estimate) -> float:
+    """Scale-invariant signal-to-distortion ratio in dB (Le Roux et al. 2019, eq. 3-4).
+
+    Both signals are made zero-mean; ``alpha = <y, s> / ||s||^2``,
+    ``SI-SDR = 10 log10( ||alpha s||^2 / ||alpha s - y||^2 )`` (floored).
+    """
+    ref, est = _pair(reference, estimate)
+    ref = ref - ref.mean()
+    est = est - est.mean()
+    alpha = float(np.dot(est, ref)) / max(float(np.dot(ref, ref)), POWER_FLOOR)
+    target = alpha * ref
+    resid = est - target
+    return _power_db_ratio(float(np.dot(target, target)), float(np.dot(resid, resid)))
+
+
+# -- perceptual metrics ------------------------------------------------------------------
+
+
+def _resample(x: np.ndarray, fs_from: int, fs_to: int) -> np.ndarray:
+    if fs_from == fs_to:
+        return x
+    g = gcd(fs_from, fs_to)
+    return resample_poly(x, fs_to // g, fs_from // g)
+
+
+def _check_not_silent(x: np.ndarray, name: str, metric: str) -> None:
+    if float(np.max(np.abs(x))) < SILENCE_PEAK:
+        raise MetricError(f"{metric}: the {name} signal is silent")
+
+
+def _pesq_one(fs: int, ref: np.ndarray, deg: np.ndarray, mode: str) -> float:
+    import pesq as pesq_pkg
+
+    try:
+        return float(pesq_pkg.pesq(fs, ref, deg, mode))
+    except (pesq_pkg.PesqError, ValueError, RuntimeError) as exc:
+        reason = exc.args[0] if exc.args else str(exc)
+        if isinstance(reason, bytes):
+            reason = reason.decode(errors="replace")
+        raise MetricError(f"PESQ ({mode}) failed: {type(exc).__name__}: {reason}") from None
+
+
+def pesq_scores(reference, degraded, *, fs) -> dict[str, float | None]:
+    """Narrow-band (ITU-T P.862) and wide-band (P.862.2) PESQ MOS-LQO via the ``pesq`` package.
+
+    At ``fs = 16000`` both modes run on the signals as given (the ``pesq`` package's own
+    oracle: its README pair scores wb 1.0832337141036987, nb 1.6072081327438354).  Other
+    rates are resampled (``scipy.signal.resample_poly``): to 16 kHz when ``fs > 16000``,
+    to 8 kHz when ``fs < 16000`` -- and then ``"wb"`` is ``None``: wide-band PESQ of a
+    signal with no content above 4 kHz is not meaningful.
+
+    Parameters
+    ----------
+    reference, degraded : array, shape (n,)
+        Clean reference and processed signal, time aligned, same length.
+    fs : int
+        Sampling rate in Hz.
+
+    Returns
+    -------
+    dict
+        ``{"nb": float, "wb": float or None}``.
+
+    Raises
+    ------
+    MetricError
+        Silent input, less than 0.25 s, or a PESQ failure (``NoUtterancesError`` ...);
+        the message gives the reason.
+    """
+    ref, deg = _pair(reference, degraded, ("reference", "degraded"))
+    fs = check_fs(fs)
+    _check_not_silent(ref, "reference", "PESQ")
+    _check_not_silent(deg, "degraded", "PESQ")
+    if ref.size < PESQ_MIN_S * fs:
+        raise MetricError(
+            f"PESQ needs at least {PESQ_MIN_S} s of signal; got {ref.size / fs:.3f} s"
+        )
+    fs_pesq = 16000 if fs >= 16000 else 8000
+    ref = _resample(ref, fs, fs_pesq)
+    deg = _resample(deg, fs, fs_pesq)
+    nb = _pesq_one(fs_pesq, ref, deg, "nb")
+    wb = _pesq_one(fs_pesq, ref, deg, "wb") if fs_pesq == 16000 else None
+    return {"nb": nb, "wb": wb}
+
+
+def stoi_scores(reference, degraded, *, fs) -> dict[str, float]:
+    """STOI (Taal et al. 2011) and extended STOI (Jensen & Taal 2016) via ``pystoi``.
+
+    ``pystoi`` resamples to 10 kHz itself and drops frames 40 dB below the loudest.  When
+    fewer than 30 frames (about 0.4 s of active speech) remain, ``pystoi`` would return
+    1e-5 with a warning; this raises :class:`MetricError` instead, as it does for silence.
+
+    Returns
+    -------
+    dict
+        ``{"stoi": float, "estoi": float}`` (0..1, higher is better).
+    """
+    from pystoi import stoi
+
+    ref, deg = _pair(reference, degraded, ("reference", "degraded"))
+    fs = check_fs(fs)
+    _check_not_silent(ref, "reference", "STOI")
+    out = {}
+    for key, extended in (("stoi", False), ("estoi", True)):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            value = float(stoi(ref, deg, fs, extended=extended))
+        for w in caught:
+            if "Not enough STFT frames" in str(w.message):
+                raise MetricError(f"{key.upper()}: too little active speech (< 30 frames)")
+        if not math.isfinite(value):
+            raise MetricError(f"{key.upper()}: not finite ({value})")
+        out[key] = value
+    return out
+
+
+# -- alignment ---------------------------------------------------------------------------
+
+
+def align(output, reference, *, latency_samples) -> tuple[np.ndarray, np.ndarray]:
+    """Undo an enhancer's declared latency so ``out_aligned[n] = output[n + latency]``
+    pairs with ``ref_aligned[n] = reference[n]``; both trimmed to the common length.
+
+    Works on the last axis of 1-D or 2-D arrays (channels kept).  Returns views.
+    """
+    latency = check_int("latency_samples", latency_samples, minimum=0)
+    out = np.asarray(output)
+    ref = np.asarray(reference)
+    n = min(out.shape[-1] - latency, ref.shape[-1])
+    if n <= 0:
+        raise ParameterError(
+            "latency_samples", latency, f"fewer than the output's {out.shape[-1]} samples"
+        )
+    return out[..., latency : latency + n], ref[..., :n]
+
+
+def estimate_lag(a, b, *, max_lag) -> int:
+    """Lag ``L`` (samples, ``|L| <= max_lag``) maximising ``|sum_n a[n + L] b[n]|``.
+
+    Positive ``L`` means ``a`` is a delayed copy of ``b``.  The cross-correlation is
+    computed with one zero-padded real FFT (no circular wrap-around); the absolute value
+    makes a polarity inversion irrelevant.  Ties go to the smallest ``|L|``.
+    """
+    a = _as_1d(a, "a")
+    b = _as_1d(b, "b")
+    max_lag = check_int("max_lag", max_lag, minimum=0)
+    nfft = 1 << int(math.ceil(math.log2(a.size + b.size)))
+    corr = np.fft.irfft(np.fft.rfft(a, nfft) * np.conj(np.fft.rfft(b, nfft)), nfft)
+    # corr[k] = sum_n a[n + k] b[n]; negative lags wrap to the end of the buffer.
+    lags = np.arange(-max_lag, max_lag + 1)
+    lags = lags[(lags < a.size) & (lags > -b.size)]
+    values = np.abs(corr[lags % nfft])
+    best = np.flatnonzero(values >= values.max() * (1 - 1e-12))
+    return int(lags[best[np.argmin(np.abs(lags[best]))]])
