@@ -1,0 +1,274 @@
+"""Per-condition evaluation with a stand-in scene and small linear test enhancers."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from benchmarks.evaluate import INPUT_COLUMNS, ROW_COLUMNS, evaluate_enhancer, input_metrics
+from enhancers.base import Enhancer, Params, Result, Tags
+from scenesim.validate import check_finite_number, check_int
+
+FS = 16000
+
+
+@dataclass(frozen=True)
+class StandInScene:
+    """Same fields as ``scenesim.scene.RenderedScene`` (what evaluate needs)."""
+
+    mixture: np.ndarray
+    speech_image: np.ndarray
+    noise_image: np.ndarray
+    reference: np.ndarray
+    fs: int
+    snr_db: float
+    scene: Any = None
+
+
+def _speech_like(rng, seconds=2.0, fs=FS):
+    """Harmonic complex (150 Hz) with 4 Hz syllabic modulation: PESQ/STOI find utterances."""
+    t = np.arange(int(seconds * fs)) / fs
+    voiced = sum(np.sin(2 * np.pi * 150 * k * t) / k for k in range(1, 20))
+    envelope = np.clip(np.sin(2 * np.pi * 4 * t), 0, None) ** 2
+    return 0.1 * envelope * voiced
+
+
+def make_scene(rng, *, snr_db=5.0, silent_speech=False, seconds=2.0) -> StandInScene:
+    """Two mics: channel 1 is channel 0 delayed by 1 sample (speech) / 3 samples (noise)."""
+    s = np.zeros(int(seconds * FS)) if silent_speech else _speech_like(rng, seconds)
+    n = rng.standard_normal(s.size + 3)
+    # Scaled on the samples channel 0 gets, against the (non-silent) speech power.
+    ref_power = np.mean(_speech_like(rng, seconds) ** 2)
+    n *= np.sqrt(ref_power / np.mean(n[3:] ** 2) / 10 ** (snr_db / 10))
+    speech = np.stack([s, np.concatenate([[0.0], s[:-1]])])
+    noise = np.stack([n[3:], n[:-3]])
+    return StandInScene(
+        mixture=speech + noise,
+        speech_image=speech,
+        noise_image=noise,
+        reference=s[None, :].copy(),
+        fs=FS,
+        snr_db=snr_db,
+    )
+
+
+# -- test enhancers ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GainParams(Params):
+    gain: float = 0.5
+
+    def __post_init__(self):
+        check_finite_number("gain", self.gain)
+
+
+class FixedGain(Enhancer):
+    """``y = gain * x`` on the reference mic: linear and time invariant."""
+
+    name = "test-gain"
+    Params = GainParams
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=1)
+
+    def _process(self, x, fs):
+        g = self.params.gain
+        return Result(output=g * x, _replay=lambda c: g * np.asarray(c, dtype=float))
+
+
+class FrontMicOnly(Enhancer):
+    """Two channels in; zeroes channel 1 and passes channel 0 (passthrough-like)."""
+
+    name = "test-front"
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=2)
+
+    def _process(self, x, fs):
+        weights = np.array([1.0, 0.0])
+        return Result(output=weights @ x[None], _replay=lambda c: (weights @ np.asarray(c))[None])
+
+
+@dataclass(frozen=True)
+class FirParams(Params):
+    delay: int = 0
+    declared: int = 0
+    replayable: bool = True
+
+    def __post_init__(self):
+        check_int("delay", self.delay, minimum=0)
+        check_int("declared", self.declared, minimum=0)
+
+
+class DelayedLowpassRamp(Enhancer):
+    """Time-varying but linear: 2-mic sum, FIR low-pass, a gain ramp, then a pure delay.
+
+    ``params.declared`` is the latency it *declares*; ``params.delay`` the one it applies.
+    The trace holds a per-sample 'beta' (the ramp) so trace_json can be checked.
+    """
+
+    name = "test-fir"
+    Params = FirParams
+    taps: ClassVar[np.ndarray] = np.hanning(9) / np.hanning(9).sum()
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(
+            channels_in=2,
+            latency_samples=self.params.declared,
+            replayable=self.params.replayable,
+        )
+
+    def _op(self, c):
+        c = np.asarray(c, dtype=float)
+        y = lfilter(self.taps, [1.0], c[0] + 0.5 * c[1])
+        y *= np.linspace(0.5, 1.5, y.size)
+        d = self.params.delay
+        return np.concatenate([np.zeros(d), y[: y.size - d]])[None]
+
+    def _process(self, x, fs):
+        ramp = np.linspace(0.5, 1.5, x.shape[1])
+        replay = self._op if self.params.replayable else None
+        return Result(output=self._op(x), trace={"beta": ramp, "gain": ramp[:10]}, _replay=replay)
+
+
+class Broken(Enhancer):
+    name = "test-broken"
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=1)
+
+    def _process(self, x, fs):
+        raise RuntimeError("deliberate failure")
+
+
+class ThreeChannels(FixedGain):
+    name = "test-three"
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=3)
+
+
+# -- tests ---------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return make_scene(np.random.default_rng(7))
+
+
+@pytest.fixture(scope="module")
+def scene_inputs(scene):
+    return input_metrics(scene)
+
+
+def test_input_metrics_columns_and_measured_snr(scene, scene_inputs):
+    assert set(scene_inputs) == set(INPUT_COLUMNS)
+    assert scene_inputs["input_error"] is None
+    # Oracle: the noise was scaled to 5 dB against a speech signal with the same power.
+    np.testing.assert_allclose(scene_inputs["snr_in_db_measured"], 5.0, atol=1e-9)
+    for key in ("pesq_nb_in", "pesq_wb_in", "stoi_in", "estoi_in", "segsnr_in_db"):
+        assert np.isfinite(scene_inputs[key])
+
+
+def test_fixed_gain_has_zero_snr_improvement(scene, scene_inputs):
+    # Oracle: a linear gain scales speech and noise alike, so SNR-I = 0 (to 1e-9).
+    row = evaluate_enhancer(FixedGain(gain=0.3), scene, input_metrics=scene_inputs)
+    assert row["status"] == "ok" and row["error"] is None, row["error"]
+    assert row["snr_method"] == "replay"
+    np.testing.assert_allclose(row["snr_i_db"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(row["snr_out_db"], scene_inputs["snr_in_db_measured"], atol=1e-9)
+    # PESQ normalises level, STOI and SI-SDR are scale invariant: no change either.
+    np.testing.assert_allclose(row["pesq_nb_i"], 0.0, atol=1e-3)
+    np.testing.assert_allclose(row["stoi_i"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(row["si_sdr_i_db"], 0.0, atol=1e-9)
+    assert row["latency_check"] is None and row["latency_est_samples"] == 0
+    assert set(row) == set(ROW_COLUMNS)
+
+
+def test_front_mic_passthrough_has_zero_snr_improvement(scene, scene_inputs):
+    # Oracle: the output is exactly the reference mic, whose SNR is the input SNR.
+    row = evaluate_enhancer(FrontMicOnly(), scene, input_metrics=scene_inputs)
+    assert row["status"] == "ok", row["error"]
+    np.testing.assert_allclose(row["snr_i_db"], 0.0, atol=1e-9)
+    np.testing.assert_allclose(row["pesq_wb_out"], row["pesq_wb_in"], atol=1e-12)
+
+
+def test_phase_inversion_equals_replay_for_a_linear_enhancer(scene, scene_inputs):
+    # Oracle: Hagerman & Olofsson -- for any linear operator f, (f(s+n) +- f(s-n))/2 = f(s), f(n).
+    replay = evaluate_enhancer(DelayedLowpassRamp(), scene, input_metrics=scene_inputs)
+    black = evaluate_enhancer(
+        DelayedLowpassRamp(replayable=False), scene, input_metrics=scene_inputs
+    )
+    assert (replay["snr_method"], black["snr_method"]) == ("replay", "phase-inversion")
+    assert abs(replay["snr_i_db"]) > 0.5  # the low-pass really changes the SNR
+    np.testing.assert_allclose(black["snr_out_db"], replay["snr_out_db"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(black["snr_i_db"], replay["snr_i_db"], rtol=0, atol=1e-9)
+
+
+def test_declared_latency_is_undone_and_checked(scene, scene_inputs):
+    # Declared == applied delay: aligned metrics equal the undelayed ones, no warning.
+    undelayed = evaluate_enhancer(DelayedLowpassRamp(), scene, input_metrics=scene_inputs)
+    delayed = evaluate_enhancer(
+        DelayedLowpassRamp(delay=64, declared=64), scene, input_metrics=scene_inputs
+    )
+    # The 9-tap low-pass adds its own 4-sample group delay on top of the pure delay.
+    assert undelayed["latency_est_samples"] == 4 and undelayed["latency_check"] is None
+    assert delayed["latency_check"] is None and delayed["latency_est_samples"] == 64 + 4
+    np.testing.assert_allclose(delayed["stoi_out"], undelayed["stoi_out"], atol=0.02)
+    # Undeclared delay: the row carries a warning, not an exception.
+    wrong = evaluate_enhancer(
+        DelayedLowpassRamp(delay=64, declared=0), scene, input_metrics=scene_inputs
+    )
+    assert wrong["status"] == "ok"
+    assert "lag of 68 samples" in wrong["latency_check"]
+
+
+def test_trace_json_holds_a_decimated_beta_trajectory(scene, scene_inputs):
+    row = evaluate_enhancer(DelayedLowpassRamp(), scene, input_metrics=scene_inputs)
+    trace = json.loads(row["trace_json"])
+    assert list(trace) == ["beta"]  # 'gain' is not a beta trace
+    values = trace["beta"]["values"]
+    assert 1000 <= len(values) <= 2000
+    np.testing.assert_allclose([values[0], values[-1]], [0.5, 1.5], atol=1e-3)
+    np.testing.assert_allclose(trace["beta"]["step_s"] * len(values), 2.0, rtol=1e-3)
+
+
+def test_failing_enhancer_gives_an_error_row(scene, scene_inputs):
+    row = evaluate_enhancer(Broken(), scene, input_metrics=scene_inputs)
+    assert row["status"] == "error"
+    assert "RuntimeError: deliberate failure" in row["error"]
+    assert row["snr_out_db"] is None and row["pesq_nb_out"] is None
+    assert row["pesq_nb_in"] == scene_inputs["pesq_nb_in"]  # inputs are still recorded
+
+
+def test_too_many_input_channels_gives_an_error_row(scene, scene_inputs):
+    row = evaluate_enhancer(ThreeChannels(), scene, input_metrics=scene_inputs)
+    assert row["status"] == "error" and "channels_in" in row["error"]
+
+
+def test_pesq_failure_on_silent_speech_is_recorded_not_raised():
+    quiet = make_scene(np.random.default_rng(3), silent_speech=True)
+    inputs = input_metrics(quiet)
+    assert inputs["pesq_nb_in"] is None and "pesq_in" in inputs["input_error"]
+    row = evaluate_enhancer(FixedGain(), quiet, input_metrics=inputs)
+    assert row["status"] == "ok"
+    assert row["pesq_nb_out"] is None and row["pesq_wb_out"] is None
+    assert "pesq_out: PESQ: the reference signal is silent" in row["error"]
+    assert "pesq_in" in row["error"]
+    assert row["snr_out_db"] is not None and np.isfinite(row["snr_out_db"])
+
+
+def test_input_metrics_are_computed_when_not_given(scene, scene_inputs):
+    row = evaluate_enhancer(FixedGain(), scene)
+    assert row["pesq_wb_in"] == scene_inputs["pesq_wb_in"]
