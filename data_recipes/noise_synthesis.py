@@ -1,0 +1,285 @@
+"""Synthesized noises: the fallback for every noise type a data directory lacks.
+
+Each generator returns unit-free float64 samples normalised to RMS :data:`NOISE_RMS`
+per channel; channels are drawn independently (for incoherent / diffuse fields).
+All randomness comes from the ``rng`` argument, so a seed fixes the output.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import butter, sosfilt
+
+from data_recipes.artificial_voice import TALKERS, artificial_voice
+from data_recipes.ltass import ltass_psd_db
+from scenesim.errors import ParameterError
+from scenesim.validate import check_choice, check_fs, check_int
+
+#: RMS of every synthesized channel (-20 dBFS); the benchmark rescales to the wanted SNR.
+NOISE_RMS = 0.1
+
+#: Number of simultaneous talkers in synthesized babble.
+BABBLE_TALKERS = 6
+
+#: Mains frequency (Hz) of the factory hum family (European grid, as in NOISEX-92 factory).
+MAINS_HZ = 50.0
+#: Rotation frequency (Hz) of the factory's machine: a 4-pole induction motor on a 50 Hz grid
+#: (synchronous 1500 rpm) at 2 % slip = 1470 rpm = 24.5 Hz.
+MACHINE_HZ = 24.5
+#: Tooth count of the machine's gear: gear-mesh line at ``GEAR_TEETH * MACHINE_HZ`` (416.5 Hz).
+GEAR_TEETH = 17
+#: Corner frequency (Hz) of the 4th-order low-pass that shapes wind noise.
+WIND_CORNER_HZ = 120.0
+
+
+@dataclass(frozen=True)
+class SpeechPoolItem:
+    """One talker's speech offered to the babble generator.
+
+    ``signal`` is 1-D at the requested ``fs``; ``talker`` names the talker (distinct
+    names are preferred when picking the babble voices), ``label`` says where it came from.
+    """
+
+    talker: str
+    label: str
+    signal: np.ndarray
+
+
+@dataclass(frozen=True)
+class SynthesizedNoise:
+    """Output of :func:`synthesize_noise`.
+
+    Attributes
+    ----------
+    signal : ndarray, shape (n_channels, n_samples)
+    fs : int
+    noise_type : str
+    components : tuple of str
+        What went into it (talkers and seeds for babble, line frequencies for factory, ...).
+    """
+
+    signal: np.ndarray
+    fs: int
+    noise_type: str
+    components: tuple[str, ...]
+
+
+def synthesize_noise(
+    noise_type: str,
+    n_samples: int,
+    *,
+    fs: int,
+    rng: np.random.Generator,
+    speech_pool: Sequence[SpeechPoolItem] | None = None,
+    n_channels: int = 1,
+) -> SynthesizedNoise:
+    """Synthesize ``n_samples`` of noise of a known type.
+
+    Parameters
+    ----------
+    noise_type : str
+        One of :data:`SYNTHESIZABLE` (see the ``_<type>`` generators for what each imitates).
+    n_samples : int
+        Length (samples), >= 1.
+    fs : int
+        Sampling rate (Hz).
+    rng : numpy.random.Generator
+        The only source of randomness.
+    speech_pool : sequence of SpeechPoolItem, optional
+        Speech to build babble from (e.g. the local speech files); default: the built-in
+        artificial talkers.
+    n_channels : int
+        Independent channels to draw (1 or more).
+
+    Returns
+    -------
+    SynthesizedNoise
+        ``signal`` shaped ``(n_channels, n_samples)``, each channel at RMS :data:`NOISE_RMS`.
+    """
+    check_choice("noise_type", noise_type, SYNTHESIZABLE)
+    n_samples = check_int("n_samples", n_samples, minimum=1)
+    n_channels = check_int("n_channels", n_channels, minimum=1)
+    fs = check_fs(fs)
+    if not isinstance(rng, np.random.Generator):
+        raise ParameterError("rng", rng, "a numpy.random.Generator")
+    generator = _GENERATORS[noise_type]
+    channels, components = [], []
+    for ch in range(n_channels):
+        if noise_type == "babble":
+            x, parts = generator(n_samples, fs, rng, speech_pool)
+        else:
+            x, parts = generator(n_samples, fs, rng)
+        channels.append(_normalise(x))
+        components.extend(f"ch{ch}:{p}" if n_channels > 1 else p for p in parts)
+    return SynthesizedNoise(np.stack(channels), fs, noise_type, tuple(components))
+
+
+def _normalise(x: np.ndarray) -> np.ndarray:
+    rms = np.sqrt(np.mean(x**2))
+    return x * (NOISE_RMS / max(rms, 1e-12))
+
+
+def _shape_spectrum(white: np.ndarray, fs: int, gain_db: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """Filter noise in the frequency domain by the magnitude ``10**(gain_db(f)/20)`` (DC removed)."""
+    spec = np.fft.rfft(white)
+    f = np.fft.rfftfreq(white.size, 1.0 / fs)
+    gain = np.zeros_like(f)
+    gain[1:] = 10.0 ** (gain_db(f[1:]) / 20.0)
+    return np.fft.irfft(spec * gain, n=white.size)
+
+
+def _white(n: int, fs: int, rng: np.random.Generator):
+    """White noise: Gaussian, flat power spectral density (0 dB/oct), e.g. thermal/fan hiss."""
+    return rng.standard_normal(n), ("white:gaussian",)
+
+
+def _pink(n: int, fs: int, rng: np.random.Generator):
+    """Pink noise: PSD ~ 1/f (-3 dB/oct, equal power per octave), e.g. NOISEX-92 ``pink``.
+
+    White Gaussian noise shaped by ``|H(f)| = f**-1/2`` in the frequency domain.
+    """
+    return _shape_spectrum(rng.standard_normal(n), fs, lambda f: -10.0 * np.log10(f)), ("pink:1/f",)
+
+
+def _speech_shaped(n: int, fs: int, rng: np.random.Generator):
+    """Speech-shaped noise: stationary Gaussian noise with the LTASS of Byrne et al. (1994).
+
+    Its PSD is the universal long-term average speech spectrum (peak 250-500 Hz, about
+    -8 dB/oct density slope above 500 Hz): the masker of ITU-T P.50-style tests.
+    """
+    x = _shape_spectrum(rng.standard_normal(n), fs, ltass_psd_db)
+    return x, ("speech-shaped:byrne1994",)
+
+
+def _wind(n: int, fs: int, rng: np.random.Generator):
+    """Wind noise on a microphone: gusty, low-frequency turbulence.
+
+    White noise through a 4th-order Butterworth low-pass at :data:`WIND_CORNER_HZ`
+    (PSD flat below, falling 24 dB/oct above) and a 2nd-order 10 Hz high-pass (no DC),
+    multiplied by a gust envelope ``exp(0.6 g(t))`` where ``g`` is unit-variance noise
+    low-passed at 0.5 Hz (gusts of a few seconds).  Independent per channel, as wind
+    turbulence at two microphones 2 cm apart is largely incoherent.
+    """
+    sos = butter(4, WIND_CORNER_HZ, btype="lowpass", fs=fs, output="sos")
+    hp = butter(2, 10.0, btype="highpass", fs=fs, output="sos")
+    x = sosfilt(hp, sosfilt(sos, rng.standard_normal(n)))
+    gust = _slow_noise(n, fs, rng, cutoff_hz=0.5)
+    return x * np.exp(0.6 * gust), (f"wind:lowpass{WIND_CORNER_HZ:g}Hz", "wind:gusts0.5Hz")
+
+
+def _slow_noise(n: int, fs: int, rng: np.random.Generator, *, cutoff_hz: float) -> np.ndarray:
+    """Unit-variance Gaussian noise band-limited to ``cutoff_hz`` (drawn at 100 Hz, interpolated)."""
+    rate = 100.0
+    m = int(np.ceil(n / fs * rate)) + 8
+    sos = butter(2, cutoff_hz, btype="lowpass", fs=rate, output="sos")
+    g = sosfilt(sos, rng.standard_normal(m + 200))[200:]  # 2 s burn-in of the filter state
+    g = (g - g.mean()) / max(g.std(), 1e-12)
+    return np.interp(np.arange(n) / fs * rate, np.arange(m), g)
+
+
+def _factory(n: int, fs: int, rng: np.random.Generator):
+    """Factory floor: machinery lines, impulsive hammer hits and a pink floor.
+
+    * Electrical hum: :data:`MAINS_HZ` and its harmonics up to 400 Hz (amplitude ~ 1/k).
+    * A rotating machine at :data:`MACHINE_HZ` with harmonics up to 1 kHz (~ 1/k), plus a
+      gear-mesh line at ``GEAR_TEETH * MACHINE_HZ``; its load modulates the amplitude by
+      +-20 % at 0.3 Hz.
+    * Hammer hits: a Poisson process (1.5 hits/s) of exponentially decaying
+      (tau 10-40 ms) bursts of noise ringing at 1-4 kHz (struck metal), levels +-6 dB.
+    * Pink floor (-3 dB/oct) 6 dB below the tonal part.
+
+    The PSD therefore shows lines at 50, 100, 150 ... Hz and 24.5, 49, 73.5 ... Hz over
+    a -3 dB/oct floor, with broadband transients; it imitates NOISEX-92 ``factory1``.
+    """
+    t = np.arange(n) / fs
+    tonal = np.zeros(n)
+    for k in range(1, int(400 / MAINS_HZ) + 1):
+        tonal += np.sin(2 * np.pi * k * MAINS_HZ * t + rng.uniform(0, 2 * np.pi)) / k
+    load = 1.0 + 0.2 * np.sin(2 * np.pi * 0.3 * t + rng.uniform(0, 2 * np.pi))
+    machine = np.zeros(n)
+    for k in range(1, int(1000 / MACHINE_HZ) + 1):
+        machine += np.sin(2 * np.pi * k * MACHINE_HZ * t + rng.uniform(0, 2 * np.pi)) / k
+    machine += 0.5 * np.sin(2 * np.pi * GEAR_TEETH * MACHINE_HZ * t + rng.uniform(0, 2 * np.pi))
+    tonal = tonal + 1.5 * machine * load
+    pink, _ = _pink(n, fs, rng)
+    pink *= 0.5 * np.std(tonal) / max(np.std(pink), 1e-12)
+    hits = np.zeros(n)
+    n_hits = rng.poisson(1.5 * n / fs)
+    for start in np.sort(rng.integers(0, n, size=n_hits)):
+        tau = rng.uniform(0.010, 0.040)
+        length = min(n - start, int(5 * tau * fs))
+        ring_hz = min(rng.uniform(1000.0, 4000.0), 0.4 * fs)
+        tt = np.arange(length) / fs
+        burst = np.exp(-tt / tau) * (np.sin(2 * np.pi * ring_hz * tt) + 0.5 * rng.standard_normal(length))
+        hits[start:start + length] += burst * 10.0 ** (rng.uniform(-6, 6) / 20.0)
+    if n_hits:
+        # Hits carry about as much energy as the tonal part (they dominate above 1 kHz).
+        hits *= np.std(tonal) / max(np.sqrt(np.mean(hits**2)), 1e-12)
+    parts = (f"factory:mains{MAINS_HZ:g}Hz", f"factory:machine{MACHINE_HZ:g}Hz",
+             f"factory:gear{GEAR_TEETH * MACHINE_HZ:g}Hz", f"factory:hits{n_hits}")
+    return tonal + pink + hits, parts
+
+
+def _babble(n: int, fs: int, rng: np.random.Generator, pool: Sequence[SpeechPoolItem] | None):
+    """Babble: :data:`BABBLE_TALKERS` talkers speaking at once, as in a cafeteria.
+
+    Each voice is a stretch of one talker's speech (looped if short) starting at a
+    random offset, scaled to a random level within +-3 dB; distinct talkers are used
+    whenever the pool has enough of them.  With no pool the six built-in artificial
+    talkers speak with their own seeds.  The long-term spectrum is that of speech,
+    with the 4 Hz envelope modulation largely averaged out.
+    """
+    x = np.zeros(n)
+    parts = []
+    if pool is None:
+        for talker in TALKERS[:BABBLE_TALKERS]:
+            seed = int(rng.integers(2**31))
+            voice, _ = artificial_voice(n / fs + 0.5, fs=fs, seed=seed, talker=talker)
+            offset = int(rng.integers(0, int(0.5 * fs)))
+            gain = 10.0 ** (rng.uniform(-3, 3) / 20.0)
+            x += gain * voice[offset:offset + n]
+            parts.append(f"artificial-voice:{talker.name}:seed={seed}")
+        return x, tuple(parts)
+    if not pool:
+        raise ParameterError("speech_pool", pool, "at least one speech item for babble")
+    for item in _pick_voices(pool, rng):
+        sig = np.asarray(item.signal, dtype=float)
+        offset = int(rng.integers(0, max(1, sig.size)))
+        reps = int(np.ceil((offset + n) / max(sig.size, 1))) + 1
+        voice = np.tile(sig, reps)[offset:offset + n]
+        rms = np.sqrt(np.mean(voice**2))
+        gain = 10.0 ** (rng.uniform(-3, 3) / 20.0) / max(rms, 1e-12)
+        x += gain * voice
+        parts.append(f"{item.label}@{offset}")
+    return x, tuple(parts)
+
+
+def _pick_voices(pool: Sequence[SpeechPoolItem], rng: np.random.Generator) -> list[SpeechPoolItem]:
+    """Choose BABBLE_TALKERS items, one per distinct talker first, then reuse talkers."""
+    order = [int(i) for i in rng.permutation(len(pool))]
+    chosen, seen = [], set()
+    for i in order:
+        if pool[i].talker not in seen:
+            chosen.append(i)
+            seen.add(pool[i].talker)
+    rest = [i for i in order if i not in chosen] or order
+    k = 0
+    while len(chosen) < BABBLE_TALKERS:
+        chosen.append(rest[k % len(rest)])
+        k += 1
+    return [pool[i] for i in chosen[:BABBLE_TALKERS]]
+
+
+_GENERATORS = {
+    "babble": _babble,
+    "factory": _factory,
+    "wind": _wind,
+    "white": _white,
+    "pink": _pink,
+    "speech-shaped": _speech_shaped,
+}
+#: Noise types :func:`synthesize_noise` can make.
+SYNTHESIZABLE: tuple[str, ...] = tuple(_GENERATORS)
