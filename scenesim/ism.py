@@ -44,6 +44,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft as sfft
 from scipy import signal
 
 from scenesim.errors import ParameterError
@@ -239,43 +240,120 @@ def _render_exact(imgs: _Images, n_taps: int, fs, c) -> np.ndarray:
     return out.reshape(n_mics, n_taps)
 
 
+def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
+    """FFTs ``(u, n_fft // 2 + 1)`` of the windowed-sinc kernel's polyphase branches.
+
+    With ``X_j[k] = grid[k u + j]`` the decimated filter output
+    ``y[n] = sum_m h[m] grid[n u - m]`` is ``conv(h[0::u], X_0) + z^-1 sum_{b>0} conv(h[b::u], X_{u-b})``;
+    branch ``j`` therefore holds ``h[0::u]`` (j = 0) or ``h[(u-j)::u]`` delayed by one (j > 0).
+    """
+    half = SINC_HALF_WIDTH
+    h = windowed_sinc(np.arange(-half * u, half * u + 1) / u, half)
+    n_a = 2 * half + 2
+    hp = np.zeros((u, n_a))
+    padded = np.zeros(n_a * u)
+    padded[: h.size] = h
+    poly = padded.reshape(n_a, u).T  # poly[b, a] = h[a u + b]
+    hp[0] = poly[0]
+    for j in range(1, u):
+        hp[j, 1:] = poly[u - j, :-1]
+    return np.fft.rfft(hp, n_fft, axis=-1)
+
+
+class _Scatter:
+    """Preallocated buffers for the fast renderer: fill image terms, flush them onto the grid."""
+
+    def __init__(self, n_mics: int, capacity: int, n_fine: int, u: int, g0: int, d_max, fs, c):
+        self.n_mics, self.cap, self.n_fine = n_mics, capacity, n_fine
+        self.r = np.empty((n_mics, capacity))  # squared distance, then delay on the fine grid
+        self.g = np.empty(capacity)  # reflection gains
+        self.amp = np.empty((n_mics, capacity))
+        self.floor = np.empty((n_mics, capacity))
+        self.idx = np.empty((4, n_mics, capacity), dtype=np.int64)
+        self.w = np.empty((4, n_mics, capacity))
+        self.tmp = np.empty((n_mics, capacity))
+        self.base = (np.arange(n_mics) * n_fine)[:, None]
+        self.grid = np.zeros(n_mics * n_fine)
+        self.fill = 0
+        self.scale = fs * u / c  # metres -> fine-grid samples
+        self.g0, self.q_max = float(g0), g0 + float(d_max) * u
+
+    def add(self, dx2_col: np.ndarray, dyz2: np.ndarray, gx: float, gyz: np.ndarray):
+        cnt, done = gyz.size, 0
+        while done < cnt:
+            take = min(cnt - done, self.cap - self.fill)
+            sl = slice(self.fill, self.fill + take)
+            np.add(dx2_col, dyz2[:, done : done + take], out=self.r[:, sl])
+            np.multiply(gyz[done : done + take], gx, out=self.g[sl])
+            self.fill += take
+            done += take
+            if self.fill == self.cap:
+                self.flush()
+
+    def flush(self):
+        k = self.fill
+        if k == 0:
+            return
+        r, amp, fl, tmp = self.r[:, :k], self.amp[:, :k], self.floor[:, :k], self.tmp[:, :k]
+        np.sqrt(r, out=r)
+        np.divide(self.g[:k], r, out=amp)
+        amp *= 1.0 / (4.0 * np.pi)
+        q = r
+        q *= self.scale
+        q += self.g0
+        late = q > self.q_max
+        if np.any(late):  # prune: images this late cannot reach the requested taps
+            amp[late] = 0.0
+            q[late] = self.q_max
+        np.floor(q, out=fl)
+        f = q
+        f -= fl  # fractional position in [0, 1)
+        idx = self.idx[:, :, :k]
+        np.add(fl, self.base, out=idx[1], casting="unsafe")
+        np.subtract(idx[1], 1, out=idx[0])
+        np.add(idx[1], 1, out=idx[2])
+        np.add(idx[1], 2, out=idx[3])
+        # 4-point Lagrange weights at nodes -1, 0, 1, 2, times the amplitude.
+        w = self.w[:, :, :k]
+        np.subtract(f, 1.0, out=tmp)  # f - 1
+        np.multiply(f, tmp, out=w[3])  # f (f - 1)
+        np.subtract(f, 2.0, out=w[0])
+        np.multiply(w[0], tmp, out=w[1])  # (f - 1)(f - 2)
+        np.multiply(w[1], f, out=w[0])  # f (f - 1)(f - 2)
+        np.add(f, 1.0, out=tmp)  # f + 1
+        w[0] *= -1.0 / 6.0
+        w[1] *= tmp
+        w[1] *= 0.5  # (f + 1)(f - 1)(f - 2) / 2
+        np.multiply(w[3], tmp, out=w[3])  # (f + 1) f (f - 1)
+        np.subtract(f, 2.0, out=w[2])
+        w[2] *= f
+        w[2] *= tmp
+        w[2] *= -0.5  # -(f + 1) f (f - 2) / 2
+        w[3] *= 1.0 / 6.0
+        w *= amp
+        self.grid += np.bincount(idx.ravel(), w.ravel(), minlength=self.grid.size)
+        self.fill = 0
+
+
 def _render_fast(imgs: _Images, n_taps: int, fs, c, oversampling: int = FAST_OVERSAMPLING):
     n_mics = imgs.dx2.shape[0]
     u = int(oversampling)
     half = SINC_HALF_WIDTH
     g0 = (half + 1) * u  # fine index of t = 0; leaves room for the cubic left neighbour
-    n_fine = g0 + (n_taps + half) * u + 4
+    n_blocks = half + 1 + n_taps + half + 1
+    n_fine = n_blocks * u
     d_max = n_taps - 1 + half  # images later than this cannot reach the last tap
-    grid = np.zeros((n_mics, n_fine))
-    mic_base = (np.arange(n_mics) * n_fine)[:, None]
-    for dly, amp in _batches(imgs, fs, c, _CHUNK):
-        late = dly > d_max
-        if np.any(late):  # prune: no contribution to the requested taps
-            amp = np.where(late, 0.0, amp)
-            dly = np.where(late, d_max, dly)
-        q = g0 + dly * u
-        m0 = np.floor(q)
-        f = q - m0
-        idx = (m0.astype(np.int64) + mic_base).ravel()
-        # 4-point Lagrange weights at nodes -1, 0, 1, 2 for the fractional position f.
-        fm1, fp1, fm2 = f - 1.0, f + 1.0, f - 2.0
-        weights = (
-            -f * fm1 * fm2 / 6.0,
-            fp1 * fm1 * fm2 / 2.0,
-            -fp1 * f * fm2 / 2.0,
-            fp1 * f * fm1 / 6.0,
-        )
-        for shift, w in zip((-1, 0, 1, 2), weights):
-            acc = np.bincount(idx, (amp * w).ravel(), minlength=grid.size).reshape(n_mics, n_fine)
-            if shift < 0:
-                grid[:, :shift] += acc[:, -shift:]
-            elif shift == 0:
-                grid += acc
-            else:
-                grid[:, shift:] += acc[:, :-shift]
-    kernel = windowed_sinc(np.arange(-half * u, half * u + 1) / u, half)
-    y = signal.upfirdn(kernel, grid, up=1, down=u, axis=-1)
-    # y[n] = sum_image a h(n - (half + 1) - half - D): tap t = n - (2 half + 1).
+    capacity = max(1024, min(_CHUNK // n_mics, imgs.n_images))
+    sc = _Scatter(n_mics, capacity, n_fine, u, g0, d_max, fs, c)
+    for a, cnt in imgs.slices():
+        sc.add(imgs.dx2[:, a : a + 1], imgs.dyz2[:, :cnt], imgs.gx[a], imgs.gyz[:cnt])
+    sc.flush()
+    x = sc.grid.reshape(n_mics, n_blocks, u).transpose(0, 2, 1)  # x[m, j, k] = grid[k u + j]
+    n_fft = sfft.next_fast_len(n_blocks + 2 * half + 2, real=True)
+    spec = sfft.rfft(x, n_fft, axis=-1)
+    spec *= _polyphase_kernel_fft(u, n_fft)
+    y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
+    # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1).
     start = 2 * half + 1
     return np.ascontiguousarray(y[:, start : start + n_taps])
 
