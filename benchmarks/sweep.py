@@ -1,0 +1,641 @@
+"""Sweep files: TOML parsing, validation with line numbers, and deterministic condition expansion.
+
+A sweep is a TOML file (the presets ship in ``benchmarks/presets``)::
+
+    [sweep]
+    name = "thesis"
+    description = "..."
+
+    [axes]                      # lists: the sweep is their Cartesian product
+    enhancers = ["eb", "ss", "eb-ss", "passthrough"]
+    noise = ["babble", "factory", "wind"]
+    snr_db = [0, 5, 10, 15, 20, 25]
+    rt60_s = [0.0]              # 0 = anechoic free field
+    seeds = [0]
+
+    [fixed]                     # single values for everything else
+    fs = 16000
+    duration_s = 8.0
+
+    [rooms.office]              # named rooms an axis ``room = ["office"]`` refers to
+    dims_m = [5.0, 4.0, 2.8]
+    pair_center_m = [2.0, 1.8, 0.9]
+
+    [enhancer_params.eb]        # constructor overrides per enhancer name
+    mu = 0.1
+
+Every condition parameter (see :data:`PARAMETERS`) may be an axis (a list in ``[axes]``) or
+fixed (a scalar in ``[fixed]``), never both; ``seeds`` is the axis spelling of ``seed``.
+A *condition* is one scene x noise x SNR x seed; a results row is one (condition, enhancer).
+Its id is a short SHA-256 of the canonical JSON of its parameters (not of the enhancer),
+so it is the same in every process and on every machine.  Expansion order is the
+Cartesian product with SNR innermost (conditions of one geometry are adjacent, so a
+worker reuses the rendered scene) and noise just outside it: the first thesis condition
+is babble at 0 dB.
+
+Bad files raise :class:`~scenesim.errors.ConfigError` naming the key and its line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import itertools
+import json
+import math
+import re
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from scenesim.errors import ConfigError, ParameterError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on 3.10 only
+    import tomli as tomllib
+
+PRESETS = ("thesis", "reverb", "angles", "smoke")
+"""Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
+
+ID_VERSION = 1
+"""Bumped if the canonical parameter set changes meaning (changes every condition id)."""
+
+NOISE_FIELDS = ("point", "diffuse", "incoherent")
+RT60_METHODS = ("calibrated", "sabine", "eyring")
+SNR_MODES = ("total", "reference")
+REFERENCES = ("direct", "early")
+SUPPORTED_FS = (8000, 16000)  # PESQ accepts only these
+
+
+# -- validators: value -> normalised value, or raise ValueError("what was expected") -----------
+
+
+def _number(value, *, lo=-math.inf, hi=math.inf, lo_open=False, what="a finite number"):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(what)
+    value = float(value)
+    if not math.isfinite(value) or value < lo or value > hi or (lo_open and value == lo):
+        raise ValueError(what)
+    return value
+
+
+def _finite(value):
+    return _number(value)
+
+
+def _nonneg(value):
+    return _number(value, lo=0.0, what="a number >= 0")
+
+
+def _positive(value):
+    return _number(value, lo=0.0, lo_open=True, what="a number > 0")
+
+
+def _seed(value):
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError("an integer >= 0")
+    return int(value)
+
+
+def _fs(value):
+    if isinstance(value, bool) or not isinstance(value, int) or value not in SUPPORTED_FS:
+        raise ValueError("one of " + ", ".join(map(str, SUPPORTED_FS)) + " (Hz)")
+    return int(value)
+
+
+def _bool(value):
+    if not isinstance(value, bool):
+        raise ValueError("true or false")
+    return value
+
+
+def _choice(choices):
+    def check(value):
+        if not isinstance(value, str) or value not in choices:
+            raise ValueError("one of " + ", ".join(repr(c) for c in choices))
+        return value
+
+    return check
+
+
+_NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
+
+
+def _noise_type(value):
+    # Noise types name files "<type>[_<anything>].wav": lower-case, no underscore.
+    if not isinstance(value, str) or not _NAME_RE.match(value) or "_" in value:
+        raise ValueError("a noise type name such as 'babble' (lower case, no underscore)")
+    return value
+
+
+def _room_name(value):
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value:
+        raise ValueError("the name of a [rooms.<name>] table")
+    return value
+
+
+@dataclass(frozen=True)
+class _Param:
+    check: Callable[[Any], Any]
+    default: Any  # _REQUIRED for none
+    doc: str
+
+
+_REQUIRED = object()
+
+PARAMETERS: dict[str, _Param] = {
+    # Order = expansion order, outermost first: geometry outside, noise then SNR innermost.
+    "fs": _Param(_fs, 16000, "sampling rate in Hz"),
+    "duration_s": _Param(_positive, 8.0, "length of the speech and noise signals in s"),
+    "noise_field": _Param(_choice(NOISE_FIELDS), "point", "noise field type"),
+    "far_field": _Param(_bool, True, "plane-wave (far-field) free-field propagation"),
+    "spacing_m": _Param(_positive, 0.0214, "mic spacing in m"),
+    "rt60_method": _Param(_choice(RT60_METHODS), "calibrated", "how rt60_s sets absorption"),
+    "snr_mode": _Param(_choice(SNR_MODES), "total", "how the input SNR is defined"),
+    "reference": _Param(_choice(REFERENCES), "direct", "reference speech for the metrics"),
+    "room": _Param(_room_name, None, "a room name from [rooms.<name>] (ignored when rt60_s = 0)"),
+    "rt60_s": _Param(_nonneg, 0.0, "reverberation time in s; 0 = anechoic free field"),
+    "noise_distance_m": _Param(_positive, 1.0, "noise source distance from the pair centre in m"),
+    "distance_m": _Param(_positive, 1.0, "talker distance from the pair centre in m"),
+    "speech_az_deg": _Param(_finite, 45.0, "talker azimuth in degrees (endfire = 0)"),
+    "noise_az_deg": _Param(_finite, 270.0, "noise source azimuth in degrees"),
+    "noise": _Param(_noise_type, _REQUIRED, "noise type"),
+    "seed": _Param(_seed, 0, "seed of the speech/noise excerpts and the scene"),
+    "snr_db": _Param(_finite, _REQUIRED, "input SNR in dB"),
+}
+
+_AXIS_ALIASES = {"seeds": "seed"}  # axis spelling -> parameter
+_TOP_TABLES = ("sweep", "axes", "fixed", "rooms", "enhancer_params")
+_SWEEP_KEYS = ("name", "description")
+_ROOM_KEYS = ("dims_m", "pair_center_m", "axis_azimuth_deg")
+
+
+# -- values --------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Room:
+    """A named shoebox room of a sweep: dimensions and where the phone (pair centre) is."""
+
+    name: str
+    dims_m: tuple[float, float, float]
+    pair_center_m: tuple[float, float, float]
+    axis_azimuth_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One scene x noise x SNR x seed of a sweep (every enhancer is run on it).
+
+    ``room_dims_m`` is None for the anechoic free field (``rt60_s == 0``), where the pair
+    sits at the origin.  ``id`` is the short SHA-256 of :meth:`canonical`.
+    """
+
+    noise: str
+    snr_db: float
+    rt60_s: float
+    speech_az_deg: float
+    noise_az_deg: float
+    distance_m: float
+    noise_distance_m: float
+    seed: int
+    fs: int
+    duration_s: float
+    noise_field: str
+    far_field: bool
+    spacing_m: float
+    rt60_method: str
+    snr_mode: str
+    reference: str
+    room: str | None = None
+    room_dims_m: tuple[float, float, float] | None = None
+    pair_center_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    axis_azimuth_deg: float = 0.0
+
+    def canonical(self) -> dict[str, Any]:
+        """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree)."""
+        out: dict[str, Any] = {"v": ID_VERSION}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, tuple):
+                value = [float(v) for v in value]
+            elif isinstance(value, float):
+                value = float(value)
+            out[f.name] = value
+        return out
+
+    def to_json(self) -> str:
+        return json.dumps(self.canonical(), sort_keys=True, separators=(",", ":"))
+
+    @classmethod
+    def from_json(cls, text: str) -> Condition:
+        values = json.loads(text)
+        values.pop("v", None)
+        for key in ("room_dims_m", "pair_center_m"):
+            if values.get(key) is not None:
+                values[key] = tuple(values[key])
+        return cls(**values)
+
+    @property
+    def id(self) -> str:
+        """16 hex digits of SHA-256 over the canonical JSON: stable across runs and machines."""
+        return _short_hash(self.to_json())
+
+    @property
+    def group_id(self) -> str:
+        """Id of the geometry group: everything but the SNR (rendered once, mixed per SNR)."""
+        params = self.canonical()
+        params.pop("snr_db")
+        return _short_hash(json.dumps(params, sort_keys=True, separators=(",", ":")))
+
+    def label(self) -> str:
+        room = "free field" if self.room_dims_m is None else f"{self.room} RT60 {self.rt60_s:g} s"
+        return (
+            f"{self.noise} {self.snr_db:g} dB, {room}, speech {self.speech_az_deg:g} deg, "
+            f"noise {self.noise_az_deg:g} deg, seed {self.seed}"
+        )
+
+
+def _short_hash(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A parsed sweep file: enhancers, per-enhancer params and the axes to expand.
+
+    Attributes
+    ----------
+    name, description : str
+    source : str
+        Preset name or file path it was read from.
+    text : str
+        The TOML text (recorded in the store's ``runs`` table).
+    enhancers : tuple of str
+    enhancer_params : mapping name -> dict
+    axes : mapping parameter -> tuple of values (one value for fixed parameters)
+    rooms : mapping name -> Room
+    """
+
+    name: str
+    description: str
+    source: str
+    text: str
+    enhancers: tuple[str, ...]
+    enhancer_params: Mapping[str, Mapping[str, Any]]
+    axes: Mapping[str, tuple]
+    rooms: Mapping[str, Room] = field(default_factory=dict)
+    seed_offset: int = 0
+
+    def conditions(self) -> list[Condition]:
+        """All conditions in deterministic order (Cartesian product, SNR innermost).
+
+        Conditions that describe the same scene are listed once: with ``rt60_s = 0`` the
+        room is ignored, so two rooms give one anechoic condition.
+        """
+        names = list(PARAMETERS)
+        seen: set[str] = set()
+        out: list[Condition] = []
+        for combo in itertools.product(*(self.axes[n] for n in names)):
+            values = dict(zip(names, combo))
+            values["seed"] += self.seed_offset
+            cond = _make_condition(values, self.rooms)
+            if cond.id not in seen:
+                seen.add(cond.id)
+                out.append(cond)
+        return out
+
+    def with_seed(self, seed: int) -> Sweep:
+        """The same sweep with the seeds axis offset by ``seed`` (``seeds = [0]`` becomes ``[seed]``)."""
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ParameterError("seed", seed, "an integer >= 0")
+        return dataclasses.replace(self, seed_offset=self.seed_offset + seed)
+
+    @property
+    def n_conditions(self) -> int:
+        return len(self.conditions())
+
+
+def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condition:
+    room_name = values.pop("room")
+    if values["rt60_s"] == 0.0:
+        # Anechoic free field: no room, pair at the origin; the room name does not matter.
+        return Condition(**values)
+    room = rooms[room_name]
+    return Condition(
+        **values,
+        room=room.name,
+        room_dims_m=room.dims_m,
+        pair_center_m=room.pair_center_m,
+        axis_azimuth_deg=room.axis_azimuth_deg,
+    )
+
+
+# -- loading -------------------------------------------------------------------------------
+
+
+def preset_names() -> tuple[str, ...]:
+    """Names of the preset sweeps shipped with the package."""
+    return PRESETS
+
+
+def preset_text(name: str) -> str:
+    """The TOML text of a shipped preset."""
+    if name not in PRESETS:
+        raise ConfigError(f"unknown preset {name!r}: expected one of {', '.join(PRESETS)} or a .toml file")
+    return resources.files("benchmarks").joinpath("presets", f"{name}.toml").read_text("utf-8")
+
+
+def load_sweep(preset_or_path: str | Path) -> Sweep:
+    """Read a preset by name (``"thesis"``) or a sweep TOML file by path.
+
+    Raises
+    ------
+    ConfigError
+        The file is missing, is not valid TOML, or has an unknown key, a wrong type or a
+        bad value; the message names the key and its line.
+    """
+    text_arg = str(preset_or_path)
+    path = Path(text_arg)
+    if text_arg in PRESETS and not path.is_file():
+        return parse_sweep(preset_text(text_arg), source=text_arg, default_name=text_arg)
+    if path.suffix.lower() != ".toml" and not path.is_file():
+        raise ConfigError(
+            f"unknown preset {text_arg!r}: expected one of {', '.join(PRESETS)} or a .toml file"
+        )
+    try:
+        text = path.read_text("utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read sweep file {text_arg}: {exc.strerror or exc}") from None
+    return parse_sweep(text, source=text_arg, default_name=path.stem)
+
+
+def parse_sweep(text: str, *, source: str = "<string>", default_name: str = "sweep") -> Sweep:
+    """Parse and validate sweep TOML ``text`` (see the module docstring for the format)."""
+    return _Parser(text, source).parse(default_name)
+
+
+class _Parser:
+    def __init__(self, text: str, source: str):
+        self.text = text
+        self.source = source
+        self.lines = _KeyLines(text)
+
+    # Every error goes through here so it always names the key and the line.
+    def error(self, table: tuple[str, ...], key: str | None, message: str) -> ConfigError:
+        line = self.lines.find(table, key)
+        dotted = ".".join((*table, key) if key is not None else table)
+        where = f"line {line}" if line else "line ?"
+        return ConfigError(f"{self.source}: {where}: key '{dotted}': {message}")
+
+    def parse(self, default_name: str) -> Sweep:
+        try:
+            data = tomllib.loads(self.text)
+        except tomllib.TOMLDecodeError as exc:
+            raise self._syntax_error(exc) from None
+
+        for key in data:
+            if key not in _TOP_TABLES:
+                raise self.error((), key, f"unknown table; expected one of {', '.join(_TOP_TABLES)}")
+            if not isinstance(data[key], dict):
+                raise self.error((), key, f"expected a table [{key}]")
+
+        meta = data.get("sweep", {})
+        for key in meta:
+            if key not in _SWEEP_KEYS:
+                raise self.error(("sweep",), key, f"unknown key; expected one of {', '.join(_SWEEP_KEYS)}")
+            if not isinstance(meta[key], str):
+                raise self.error(("sweep",), key, f"expected a string, got {meta[key]!r}")
+        name = meta.get("name", default_name)
+        description = meta.get("description", "")
+
+        rooms = self._rooms(data.get("rooms", {}))
+        axes, enhancers = self._axes(data.get("axes", {}), data.get("fixed", {}))
+        for name_ in axes["room"]:
+            if name_ is not None and name_ not in rooms:
+                table = ("axes",) if "room" in data.get("axes", {}) else ("fixed",)
+                raise self.error(table, "room", f"unknown room {name_!r}; define [rooms.{name_}]")
+        if any(r > 0 for r in axes["rt60_s"]) and any(r is None for r in axes["room"]):
+            table = ("axes",) if "rt60_s" in data.get("axes", {}) else ("fixed",)
+            raise self.error(table, "rt60_s", "rt60_s > 0 needs a room: define [rooms.<name>] and set room")
+        params = self._enhancer_params(data.get("enhancer_params", {}), enhancers)
+
+        sweep = Sweep(
+            name=name,
+            description=description,
+            source=self.source,
+            text=self.text,
+            enhancers=enhancers,
+            enhancer_params=params,
+            axes=axes,
+            rooms=rooms,
+        )
+        self._check_geometry(sweep, data)
+        return sweep
+
+    def _syntax_error(self, exc: Exception) -> ConfigError:
+        line = getattr(exc, "lineno", None)
+        if line is None:
+            m = re.search(r"line (\d+)", str(exc))
+            line = int(m.group(1)) if m else None
+        msg = getattr(exc, "msg", str(exc))
+        lines = self.lines.text_lines
+        if line and msg.startswith("Unclosed"):
+            # tomllib notices an unclosed [ or { where the next statement starts: point at the
+            # line that opened it instead.
+            for back in range(min(line, len(lines)), 0, -1):
+                text = lines[back - 1].split("#")[0]
+                if text.count("[") + text.count("{") > text.count("]") + text.count("}"):
+                    line = back
+                    break
+        key = None
+        if line and line <= len(lines):
+            m = re.match(r"\s*([A-Za-z0-9_.\-\"']+)\s*=", lines[line - 1])
+            if m:
+                key = m.group(1).strip("\"'")
+        what = f"key '{key}': " if key else ""
+        return ConfigError(f"{self.source}: line {line or '?'}: {what}invalid TOML: {msg}")
+
+    def _rooms(self, table: dict) -> dict[str, Room]:
+        rooms = {}
+        for name, spec in table.items():
+            if not isinstance(spec, dict):
+                raise self.error(("rooms",), name, "expected a table with dims_m and pair_center_m")
+            where = ("rooms", name)
+            for key in spec:
+                if key not in _ROOM_KEYS:
+                    raise self.error(where, key, f"unknown key; expected one of {', '.join(_ROOM_KEYS)}")
+            for key in ("dims_m", "pair_center_m"):
+                if key not in spec:
+                    raise self.error((), f"rooms.{name}", f"missing key {key!r}")
+            dims = self._triple(where, "dims_m", spec["dims_m"], positive=True)
+            center = self._triple(where, "pair_center_m", spec["pair_center_m"], positive=False)
+            if any(not (0 < c < d) for c, d in zip(center, dims)):
+                raise self.error(where, "pair_center_m", f"{list(center)} is not inside the room {list(dims)}")
+            az = spec.get("axis_azimuth_deg", 0.0)
+            try:
+                az = _finite(az)
+            except ValueError as exc:
+                raise self.error(where, "axis_azimuth_deg", f"expected {exc}, got {az!r}") from None
+            rooms[name] = Room(name=name, dims_m=dims, pair_center_m=center, axis_azimuth_deg=az)
+        return rooms
+
+    def _triple(self, where, key, value, *, positive):
+        check = _positive if positive else _finite
+        if not isinstance(value, list) or len(value) != 3:
+            raise self.error(where, key, f"expected a list of 3 numbers in m, got {value!r}")
+        try:
+            return tuple(check(v) for v in value)
+        except ValueError as exc:
+            raise self.error(where, key, f"expected 3 of {exc}, got {value!r}") from None
+
+    def _axes(self, axes: dict, fixed: dict) -> tuple[dict[str, tuple], tuple[str, ...]]:
+        values: dict[str, tuple] = {}
+        for key, raw in axes.items():
+            if key == "enhancers":
+                continue
+            param = _AXIS_ALIASES.get(key, key)
+            if param not in PARAMETERS:
+                raise self.error(("axes",), key, "unknown axis; expected one of " + _axis_names())
+            if not isinstance(raw, list) or not raw:
+                raise self.error(("axes",), key, f"expected a non-empty list, got {raw!r}")
+            checked = []
+            for v in raw:
+                try:
+                    checked.append(PARAMETERS[param].check(v))
+                except ValueError as exc:
+                    raise self.error(("axes",), key, f"expected each value to be {exc}, got {v!r}") from None
+            if len(set(checked)) != len(checked):
+                raise self.error(("axes",), key, f"repeated values in {raw!r}")
+            values[param] = tuple(checked)
+        for key, raw in fixed.items():
+            param = _AXIS_ALIASES.get(key, key)
+            if param not in PARAMETERS:
+                raise self.error(("fixed",), key, "unknown key; expected one of " + ", ".join(PARAMETERS))
+            if param in values:
+                raise self.error(("fixed",), key, "is also an axis; give it in [axes] or [fixed], not both")
+            try:
+                values[param] = (PARAMETERS[param].check(raw),)
+            except ValueError as exc:
+                raise self.error(("fixed",), key, f"expected {exc}, got {raw!r}") from None
+        for param, spec in PARAMETERS.items():
+            if param not in values:
+                if spec.default is _REQUIRED:
+                    raise self.error(("axes",), param, f"missing: give the {spec.doc} in [axes] or [fixed]")
+                values[param] = (spec.default,)
+
+        if "enhancers" not in axes:
+            raise self.error(("axes",), "enhancers", "missing: list the enhancers to run")
+        enh = axes["enhancers"]
+        if not isinstance(enh, list) or not enh or not all(isinstance(e, str) and e for e in enh):
+            raise self.error(("axes",), "enhancers", f"expected a non-empty list of names, got {enh!r}")
+        if len(set(enh)) != len(enh):
+            raise self.error(("axes",), "enhancers", f"repeated names in {enh!r}")
+        known = _available_enhancers()
+        for e in enh:
+            if e.split("@")[0] not in known:
+                raise self.error(("axes",), "enhancers", f"unknown enhancer {e!r}; available: {', '.join(known)}")
+        return values, tuple(enh)
+
+    def _enhancer_params(self, table: dict, enhancers: Sequence[str]) -> dict[str, dict]:
+        out = {}
+        for name, params in table.items():
+            if name not in enhancers:
+                raise self.error(("enhancer_params",), name, f"enhancer {name!r} is not in axes.enhancers")
+            if not isinstance(params, dict):
+                raise self.error(("enhancer_params",), name, "expected a table of parameter = value")
+            try:
+                _check_enhancer_params(name, params)
+            except ParameterError as exc:
+                if exc.name in params:
+                    raise self.error(("enhancer_params", name), exc.name, str(exc)) from None
+                raise self.error(("enhancer_params",), name, str(exc)) from None
+            out[name] = dict(params)
+        return out
+
+    def _check_geometry(self, sweep: Sweep, data: dict) -> None:
+        """Every source must lie inside its room (the image-source method needs it)."""
+        from scenesim.geometry import MicPair
+
+        for room in sweep.rooms.values():
+            if room.name not in sweep.axes["room"]:
+                continue
+            pair = MicPair(room.pair_center_m, spacing_m=sweep.axes["spacing_m"][0], axis_azimuth_deg=room.axis_azimuth_deg)
+            for dist_key, az_key in (("distance_m", "speech_az_deg"), ("noise_distance_m", "noise_az_deg")):
+                for dist in sweep.axes[dist_key]:
+                    for az in sweep.axes[az_key]:
+                        pos = pair.source_position(az, dist)
+                        if any(not (0 < p < d) for p, d in zip(pos, room.dims_m)):
+                            table = ("axes",) if dist_key in data.get("axes", {}) else ("fixed",)
+                            raise self.error(
+                                table,
+                                dist_key,
+                                f"a source at {dist:g} m, {az:g} deg from the pair lies outside room "
+                                f"{room.name!r} {list(room.dims_m)} m",
+                            )
+
+
+def _axis_names() -> str:
+    names = ["enhancers"] + [k for k, v in _AXIS_ALIASES.items()] + [p for p in PARAMETERS if p not in _AXIS_ALIASES.values()]
+    return ", ".join(names)
+
+
+def _available_enhancers() -> list[str]:
+    from enhancers.registry import available
+
+    return list(available())
+
+
+def _check_enhancer_params(name: str, params: dict) -> None:
+    from enhancers.registry import make
+
+    make(name, **params)
+
+
+class _KeyLines:
+    """Line numbers of keys in TOML text, found by scanning (tomllib keeps no positions).
+
+    Understands ``[table]`` headers, ``key = value`` lines and dotted keys; good enough for
+    pointing a user at the line of an error.
+    """
+
+    _HEADER = re.compile(r"^\s*\[\s*([^\[\]]+?)\s*\]\s*(#.*)?$")
+    _KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"' ]+?)\s*=")
+
+    def __init__(self, text: str):
+        self.text_lines = text.splitlines()
+        self.keys: dict[tuple[str, ...], int] = {}
+        self.headers: dict[tuple[str, ...], int] = {}
+        table: tuple[str, ...] = ()
+        for number, line in enumerate(self.text_lines, start=1):
+            m = self._HEADER.match(line)
+            if m:
+                table = _split_key(m.group(1))
+                self.headers.setdefault(table, number)
+                continue
+            m = self._KEY.match(line)
+            if m:
+                self.keys.setdefault((*table, *_split_key(m.group(1))), number)
+
+    def find(self, table: tuple[str, ...], key: str | None) -> int | None:
+        if key is not None:
+            path = (*table, *_split_key(key))
+            if path in self.keys:
+                return self.keys[path]
+            if path in self.headers:
+                return self.headers[path]
+            # a key at top level written as a dotted key or an inline table
+            for known, number in self.keys.items():
+                if known[-1:] == path[-1:]:
+                    return number
+        return self.headers.get(table)
+
+
+def _split_key(text: str) -> tuple[str, ...]:
+    return tuple(part.strip().strip("\"'") for part in text.split("."))
