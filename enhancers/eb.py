@@ -1,0 +1,279 @@
+"""Elko's adaptive first-order differential beamformer and fixed cardioid/hypercardioid (algorithms.md section 5).
+
+``y[n] = cF[n] - beta[n] cB[n]`` (:mod:`enhancers.differential`), followed by the optional
+look-direction equaliser.  ``beta`` minimises ``E[y^2]`` by NLMS and is clipped to
+``[0, 1]`` (null in the rear half plane) at every update:
+
+* ``update="block"`` (default): ``beta`` is constant over blocks of ``block_len`` samples
+  aligned to the stream start; at the end of each block
+  ``beta += mu sum(y cB) / (sum(cB^2) + eps sum(p1^2))`` with ``y`` computed with the old beta.
+* ``update="sample"``: ``beta += mu y[n] cB[n] / (P_B[n] + eps P_1[n])``,
+  ``P_B[n] = lam P_B[n-1] + (1 - lam) cB[n]^2`` (``P_1`` likewise for the front mic).
+
+``eps`` is relative to the front-mic power so the update is scale invariant and silence
+gives zero (never NaN).  Given the beta sequence, the output is linear in (p1, p2):
+``Result.replay`` re-applies the same beta sequence and equaliser to a component.
+``trace["beta"]``: the beta used for each output sample, ``(n,)``.
+
+Latency: ``fd_half_len`` samples (both branches are delayed by it so a fractional ``T fs``
+can use a centred windowed sinc; whole-number ``T fs`` uses exact shifts).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from scipy.signal import lfilter
+
+from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.differential import DifferentialFilters, branch_signals, design_filters
+from scenesim.errors import ParameterError
+from scenesim.validate import check_choice, check_int, check_positive, check_range
+
+__all__ = ["ElkoBeamformer", "FixedCardioid", "FixedHypercardioid"]
+
+_TINY = 1e-300
+
+
+@dataclass(frozen=True)
+class _DifferentialParams(Params):
+    spacing_m: float = 0.0214
+    c_mps: float = 343.0
+    eq: bool = True
+    eq_fc_hz: float = 70.0
+    eq_hf: float | None = None
+    fd_half_len: int = 16
+
+    def _check_common(self):
+        check_positive("spacing_m", self.spacing_m)
+        check_positive("c_mps", self.c_mps)
+        if not isinstance(self.eq, bool):
+            raise ParameterError("eq", self.eq, "True or False")
+        check_range("eq_fc_hz", self.eq_fc_hz, 0.0, 1000.0, lo_open=True)
+        if self.eq_hf is not None:
+            check_range("eq_hf", self.eq_hf, 0.0, 1.0, hi_open=True)
+        check_int("fd_half_len", self.fd_half_len, minimum=1, maximum=1024)
+
+
+@dataclass
+class _DiffState:
+    fs: int
+    history: np.ndarray          # (2, filters.history) last input samples
+    beta: float
+    eq_zi: np.ndarray | None     # (2,) lfilter state of the equaliser
+    # block variant: partial sums of the open adaptation block
+    phase: int = 0
+    s_fb: float = 0.0
+    s_bb: float = 0.0
+    s_11: float = 0.0
+    # sample variant: smoothed powers
+    p_b: float = 0.0
+    p_1: float = 0.0
+
+
+class _DifferentialBase(Enhancer):
+    """Shared streaming/batch path; subclasses define the beta sequence (``_betas``)."""
+
+    Params: ClassVar[type[Params]] = _DifferentialParams
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=2, channels_out=1, needs_geometry=True, streaming=True,
+                    latency_samples=int(self.params.fd_half_len))
+
+    def filters(self, fs: int) -> DifferentialFilters:
+        """Branch filters and equaliser at ``fs`` (cached)."""
+        p = self.params
+        return design_filters(spacing_m=float(p.spacing_m), c_mps=float(p.c_mps), fs=int(fs),
+                              fd_half_len=int(p.fd_half_len), eq=bool(p.eq), eq_fc_hz=float(p.eq_fc_hz),
+                              eq_hf=None if p.eq_hf is None else float(p.eq_hf))
+
+    def _initial_beta(self) -> float:  # pragma: no cover
+        raise NotImplementedError
+
+    def _betas(self, cF, cB, p1, state: _DiffState) -> tuple[np.ndarray, _DiffState]:  # pragma: no cover
+        raise NotImplementedError
+
+    def _init_state(self, fs: int) -> _DiffState:
+        f = self.filters(fs)
+        return _DiffState(fs=fs, history=np.zeros((2, f.history)), beta=self._initial_beta(),
+                          eq_zi=None if f.eq_b is None else np.zeros(len(f.eq_a) - 1))
+
+    def _step(self, block: np.ndarray, state: _DiffState):
+        f = self.filters(state.fs)
+        n = block.shape[-1]
+        ext = np.concatenate([state.history, block], axis=-1)
+        new_hist = ext[:, ext.shape[-1] - f.history:].copy()
+        if n == 0:
+            return np.zeros((1, 0)), _replace(state, history=new_hist), np.zeros(0)
+        cF, cB, p1 = branch_signals(ext, f, n)
+        betas, state = self._betas(cF, cB, p1, state)
+        y = cF - betas * cB
+        zi = state.eq_zi
+        if f.eq_b is not None:
+            y, zi = lfilter(f.eq_b, f.eq_a, y, zi=zi)
+        return y[None, :], _replace(state, history=new_hist, eq_zi=zi), betas
+
+    def _process_block(self, block, state):
+        out, new, _ = self._step(block, state)
+        return out, new
+
+    def _process(self, x: np.ndarray, fs: int) -> Result:
+        out, _, betas = self._step(x, self._init_state(fs))
+        f = self.filters(fs)
+        n = x.shape[-1]
+        beta_seq = betas.copy()
+        beta_seq.setflags(write=False)
+
+        def replay(component) -> np.ndarray:
+            comp, _ = self.check_input(component, fs)
+            if comp.shape[-1] != n:
+                raise ParameterError("component", comp.shape, f"shape (2, {n}) like the processed input")
+            ext = np.concatenate([np.zeros((2, f.history)), comp], axis=-1)
+            cF, cB, _ = branch_signals(ext, f, n)
+            y = cF - beta_seq * cB
+            if f.eq_b is not None:
+                y, _ = lfilter(f.eq_b, f.eq_a, y, zi=np.zeros(len(f.eq_a) - 1))
+            return y[None, :]
+
+        return Result(output=out, trace={"beta": beta_seq}, _replay=replay)
+
+
+def _replace(state: _DiffState, **changes) -> _DiffState:
+    values = dict(vars(state))
+    values.update(changes)
+    return _DiffState(**values)
+
+
+class ElkoBeamformer(_DifferentialBase):
+    """Elko's adaptive first-order differential microphone (back-to-back cardioids + NLMS beta).
+
+    Parameters (``ElkoBeamformer.Params``)
+    --------------------------------------
+    spacing_m, c_mps : pair spacing (m) and speed of sound (m/s); ``T = spacing_m / c_mps``.
+    mu : NLMS step, ``0 < mu < 2`` (default 0.05).
+    update : ``"block"`` (default, vectorized) or ``"sample"`` (per-sample NLMS, a Python loop).
+    block_len : adaptation block length in samples (default 16 = 1 ms at 16 kHz).
+    lam : power smoothing of the sample variant, ``0 <= lam < 1`` (default 0.99).
+    eps : regularisation relative to the front-mic power (default 1e-6).
+    beta0 : initial beta in ``[0, 1]`` (default 0: forward cardioid).
+    eq, eq_fc_hz, eq_hf : look-direction equaliser (see :mod:`enhancers.differential`).
+    fd_half_len : half length of the fractional-delay filter = latency (samples).
+    """
+
+    name: ClassVar[str] = "eb"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "Elko adaptive first-order differential beamformer (NLMS beta, clipped to [0, 1])"
+
+    @dataclass(frozen=True)
+    class Params(_DifferentialParams):
+        mu: float = 0.05
+        update: str = "block"
+        block_len: int = 16
+        lam: float = 0.99
+        eps: float = 1e-6
+        beta0: float = 0.0
+
+        def __post_init__(self):
+            self._check_common()
+            check_range("mu", self.mu, 0.0, 2.0, lo_open=True, hi_open=True)
+            check_choice("update", self.update, ("block", "sample"))
+            check_int("block_len", self.block_len, minimum=1)
+            check_range("lam", self.lam, 0.0, 1.0, hi_open=True)
+            check_positive("eps", self.eps, allow_zero=True)
+            check_range("beta0", self.beta0, 0.0, 1.0)
+
+    def _initial_beta(self) -> float:
+        return float(self.params.beta0)
+
+    def _betas(self, cF, cB, p1, state):
+        if self.params.update == "block":
+            return self._betas_block(cF, cB, p1, state)
+        return self._betas_sample(cF, cB, p1, state)
+
+    def _betas_block(self, cF, cB, p1, state):
+        p = self.params
+        B, mu, eps = int(p.block_len), float(p.mu), float(p.eps)
+        n = cF.shape[0]
+        g = state.phase + np.arange(n)
+        k = g // B                      # adaptation block of each sample, 0 = the open one
+        n_blk = int(k[-1]) + 1
+        s_fb = np.bincount(k, cF * cB, minlength=n_blk)
+        s_bb = np.bincount(k, cB * cB, minlength=n_blk)
+        s_11 = np.bincount(k, p1 * p1, minlength=n_blk)
+        s_fb[0] += state.s_fb
+        s_bb[0] += state.s_bb
+        s_11[0] += state.s_11
+        n_closed = (state.phase + n) // B
+        beta = state.beta
+        betas_blk = np.empty(n_blk)
+        # scalar recursion over blocks (clipping makes it nonlinear); Python floats are fastest here
+        fb_l, bb_l, l11 = s_fb.tolist(), s_bb.tolist(), s_11.tolist()
+        for i in range(n_blk):
+            betas_blk[i] = beta
+            if i < n_closed:
+                den = bb_l[i] + eps * l11[i] + _TINY
+                beta += mu * (fb_l[i] - beta * bb_l[i]) / den   # sum(y cB) with y = cF - beta cB
+                beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
+        betas = betas_blk[k]
+        open_sums = (0.0, 0.0, 0.0) if n_closed == n_blk else (
+            float(s_fb[-1]), float(s_bb[-1]), float(s_11[-1]))
+        new = _replace(state, beta=beta, phase=(state.phase + n) % B, s_fb=open_sums[0],
+                       s_bb=open_sums[1], s_11=open_sums[2])
+        return betas, new
+
+    def _betas_sample(self, cF, cB, p1, state):
+        p = self.params
+        mu, eps, lam = float(p.mu), float(p.eps), float(p.lam)
+        pb, _ = lfilter([1 - lam], [1, -lam], cB * cB, zi=[lam * state.p_b])
+        p11, _ = lfilter([1 - lam], [1, -lam], p1 * p1, zi=[lam * state.p_1])
+        den = (pb + eps * p11 + _TINY).tolist()
+        beta = state.beta
+        betas = np.empty(cF.shape[0])
+        for i, (f_, b_, d_) in enumerate(zip(cF.tolist(), cB.tolist(), den)):
+            betas[i] = beta
+            beta += mu * (f_ - beta * b_) * b_ / d_
+            beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
+        return betas, _replace(state, beta=beta, p_b=float(pb[-1]), p_1=float(p11[-1]))
+
+
+class _FixedBase(_DifferentialBase):
+    def _initial_beta(self) -> float:
+        return float(self.params.beta)
+
+    def _betas(self, cF, cB, p1, state):
+        return np.full(cF.shape[0], float(self.params.beta)), state
+
+
+class FixedCardioid(_FixedBase):
+    """Fixed first-order differential pattern ``y = cF - beta cB`` with ``beta = 0`` (cardioid, DI 4.77 dB)."""
+
+    name: ClassVar[str] = "cardioid"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "fixed differential cardioid (beta 0), look-direction equalised"
+
+    @dataclass(frozen=True)
+    class Params(_DifferentialParams):
+        beta: float = 0.0
+
+        def __post_init__(self):
+            self._check_common()
+            check_range("beta", self.beta, 0.0, 1.0)
+
+
+class FixedHypercardioid(_FixedBase):
+    """Fixed first-order differential pattern with ``beta = 0.5`` (hypercardioid, DI 6.02 dB)."""
+
+    name: ClassVar[str] = "hypercardioid"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "fixed differential hypercardioid (beta 0.5), look-direction equalised"
+
+    @dataclass(frozen=True)
+    class Params(_DifferentialParams):
+        beta: float = 0.5
+
+        def __post_init__(self):
+            self._check_common()
+            check_range("beta", self.beta, 0.0, 1.0)
