@@ -10,8 +10,11 @@ Recipes that write a data directory: :func:`list_recipes`, :func:`prepare`.
 """
 
 from data_recipes.artificial_voice import TALKERS, Talker, artificial_voice
-from data_recipes.local import scan_local
+from data_recipes.cmu_arctic import prepare_cmu_arctic
+from data_recipes.local import prepare_local, scan_local
 from data_recipes.noise_synthesis import SYNTHESIZABLE, SynthesizedNoise, synthesize_noise
+from data_recipes.noisex92 import prepare_noisex92
+from data_recipes.registry import Recipe, get_recipe, list_recipes, prepare
 from data_recipes.source import Clip, DataFallbackWarning, DataSource, open_data
 
 __all__ = [
@@ -20,10 +23,17 @@ __all__ = [
     "Clip",
     "DataFallbackWarning",
     "DataSource",
+    "Recipe",
     "SynthesizedNoise",
     "Talker",
     "artificial_voice",
+    "get_recipe",
+    "list_recipes",
     "open_data",
+    "prepare",
+    "prepare_cmu_arctic",
+    "prepare_local",
+    "prepare_noisex92",
     "scan_local",
     "synthesize_noise",
 ]
