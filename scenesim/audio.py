@@ -1,0 +1,138 @@
+"""Audio file I/O and resampling: always float64 ``(n_channels, n_samples)`` arrays.
+
+* :func:`read_audio` reads anything ``soundfile`` reads (WAV, FLAC, ...), optionally
+  resampled to ``fs`` with a polyphase filter (``scipy.signal.resample_poly``).
+* :func:`write_audio` writes atomically (temporary file in the target directory, then
+  ``os.replace``), refuses NaN/Inf, and for integer PCM refuses samples beyond full scale
+  (``|x| > 1``) unless ``normalize=True`` asks for peak normalisation -- nothing is clipped
+  silently.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import soundfile as sf
+from scipy import signal as sps
+
+from scenesim.errors import DataError, ParameterError
+from scenesim.validate import check_choice, check_fs
+
+SUBTYPES = ("FLOAT", "DOUBLE", "PCM_16", "PCM_24", "PCM_32")
+
+
+def resample(x, fs_from: int, fs_to: int) -> np.ndarray:
+    """Resample ``x`` ((n,) or (n_ch, n)) from ``fs_from`` to ``fs_to`` Hz along the last axis.
+
+    Polyphase FIR (``resample_poly``, Kaiser window beta 5) with the ratio reduced by the
+    gcd; the output has ``ceil(n * fs_to / fs_from)`` samples.  Same rate: a copy.
+    """
+    fs_from = check_fs(fs_from)
+    fs_to = check_fs(fs_to)
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.ndim not in (1, 2):
+        raise ParameterError("x", arr, "a 1-D or (n_channels, n_samples) array")
+    if fs_from == fs_to:
+        return arr.copy()
+    g = math.gcd(fs_from, fs_to)
+    return sps.resample_poly(arr, fs_to // g, fs_from // g, axis=-1)
+
+
+def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
+    """Read an audio file as float64 ``(n_channels, n_samples)`` in [-1, 1] full-scale units.
+
+    Parameters
+    ----------
+    path : str or Path
+    fs : int, optional
+        Resample to this rate (Hz) when the file's rate differs.
+
+    Returns
+    -------
+    x : ndarray (n_channels, n_samples)
+    fs : int
+        The rate of ``x`` (the file's, or ``fs`` when given).
+
+    Raises
+    ------
+    DataError
+        The file is missing, unreadable or has no samples (the message names it).
+    """
+    if fs is not None:
+        fs = check_fs(fs)
+    path = Path(path)
+    try:
+        data, file_fs = sf.read(str(path), dtype="float64", always_2d=True)
+    except (sf.LibsndfileError, RuntimeError, OSError) as exc:
+        raise DataError(f"cannot read audio file {path}: {exc}") from exc
+    if data.size == 0:
+        raise DataError(f"audio file {path} has no samples")
+    x = np.ascontiguousarray(data.T)
+    if not np.all(np.isfinite(x)):
+        raise DataError(f"audio file {path} contains NaN or Inf samples")
+    if fs is not None and fs != file_fs:
+        return resample(x, file_fs, fs), fs
+    return x, int(file_fs)
+
+
+def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = False) -> Path:
+    """Write ``x`` ((n,) or (n_channels, n_samples)) to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file; the format follows the extension (``.wav``, ``.flac``).
+    x : array
+        Samples in full-scale units; not modified.
+    fs : int
+        Sampling rate in Hz.
+    subtype : {"FLOAT", "DOUBLE", "PCM_16", "PCM_24", "PCM_32"}
+        Sample format.
+    normalize : bool
+        Integer PCM only: scale to a peak of 0.99 when ``|x| > 1`` (otherwise that raises).
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    fs = check_fs(fs)
+    subtype = check_choice("subtype", subtype, SUBTYPES)
+    arr = np.asarray(x, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] == 0 or arr.shape[0] == 0:
+        raise ParameterError("x", arr, "a non-empty (n_channels, n_samples) array")
+    if not np.all(np.isfinite(arr)):
+        raise ParameterError("x", arr, "finite samples only (no NaN or Inf)")
+    if subtype.startswith("PCM"):
+        peak = float(np.max(np.abs(arr)))
+        if peak > 1.0:
+            if not normalize:
+                raise ParameterError(
+                    "x",
+                    arr,
+                    f"samples within [-1, 1] for {subtype} (peak {peak:.3g}); pass normalize=True",
+                )
+            arr = arr * (0.99 / peak)
+    path = Path(path)
+    fmt = path.suffix[1:].upper()
+    if fmt not in sf.available_formats():
+        raise ParameterError(
+            "path", str(path), "a file name ending in .wav, .flac or another soundfile format"
+        )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        # The temporary name has no audio extension, so the format is given explicitly.
+        sf.write(tmp, arr.T, fs, subtype=subtype, format=fmt)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

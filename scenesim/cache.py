@@ -1,0 +1,183 @@
+"""Memoised room impulse responses, keyed by a hash of their frozen parameters (style.md lesson 12).
+
+:func:`cached_rir` computes ``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)``
+once per distinct set of parameters.  The key is the sha256 of a canonical JSON document
+(sorted keys, floats by their shortest exact ``repr``, tuples as lists) of every parameter, the room's
+per-wall absorption included, plus :data:`CACHE_FORMAT` -- so it is stable across
+processes and runs (no Python ``hash()``).
+
+Two levels:
+
+* memory: a bounded LRU (:data:`MEMORY_ITEMS` entries) shared by the process;
+* disk (optional): ``<dir>/<key>.npy`` in ``cache_dir`` or ``$SCENESIM_CACHE``.  Files are
+  written to a temporary file in the same directory and renamed with ``os.replace``
+  (atomic on POSIX and Windows), so a crash or a concurrent writer never leaves a torn
+  file.  An unreadable file is treated as a miss and rewritten.
+
+Callers get a fresh copy each time, so nothing they do can corrupt the cache.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import tempfile
+import threading
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from scenesim.errors import ParameterError
+
+CACHE_FORMAT = "scenesim-rir-v1"
+"""Bumped when the cached quantity's definition changes, which invalidates old disk files."""
+
+MEMORY_ITEMS = 128
+"""Maximum number of RIR arrays kept in memory (least recently used dropped first)."""
+
+ENV_VAR = "SCENESIM_CACHE"
+
+_lock = threading.Lock()
+_memory: OrderedDict[str, np.ndarray] = OrderedDict()
+
+
+def canonical(value):
+    """JSON-ready canonical form: dataclasses by init fields (plus ``__type__``), arrays/tuples as lists."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        out = {
+            f.name: canonical(getattr(value, f.name)) for f in dataclasses.fields(value) if f.init
+        }
+        out["__type__"] = type(value).__name__
+        alpha = getattr(value, "wall_absorption", None)
+        if alpha is not None:  # rooms: the absorption actually used (rt60-derived included)
+            out["wall_absorption"] = canonical(np.asarray(alpha))
+        return out
+    if isinstance(value, dict):
+        return {str(k): canonical(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [canonical(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [canonical(v) for v in value.tolist()]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if not math.isfinite(v):
+            return repr(v)
+        # Integral floats and ints hash alike (45 == 45.0 for a position); json writes
+        # other floats with repr, the shortest exact round trip, so the text is stable.
+        return int(v) if v.is_integer() and abs(v) < 2**53 else v
+    if value is None or isinstance(value, str):
+        return value
+    raise ParameterError("value", value, "numbers, strings, sequences, dicts or dataclasses")
+
+
+def stable_hash(value) -> str:
+    """sha256 hex digest of the canonical JSON of ``value`` (stable across processes)."""
+    text = json.dumps(canonical(value), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def rir_key(room, source_m, mics_m, *, fs: int, **kwargs) -> str:
+    """The cache key of one RIR computation."""
+    from scenesim import ism  # imported lazily: keeps this module importable on its own
+
+    return stable_hash(
+        {
+            "format": CACHE_FORMAT,
+            "ism_version": getattr(ism, "ALGORITHM_VERSION", None),
+            "room": room,
+            "source_m": np.asarray(source_m, dtype=float),
+            "mics_m": np.asarray(mics_m, dtype=float),
+            "fs": fs,
+            "kwargs": kwargs,
+        }
+    )
+
+
+def _cache_dir(cache_dir) -> Path | None:
+    if cache_dir is None:
+        cache_dir = os.environ.get(ENV_VAR) or None
+    return None if cache_dir is None else Path(cache_dir)
+
+
+def _remember(key: str, value: np.ndarray) -> None:
+    with _lock:
+        _memory[key] = value
+        _memory.move_to_end(key)
+        while len(_memory) > MEMORY_ITEMS:
+            _memory.popitem(last=False)
+
+
+def _save_atomic(path: Path, value: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.save(fh, value, allow_pickle=False)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> np.ndarray:
+    """``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
+
+    Parameters
+    ----------
+    room : ShoeBox
+    source_m : 3 floats
+    mics_m : array (n_mics, 3)
+    fs : int
+    cache_dir : path, optional
+        Disk cache directory; default ``$SCENESIM_CACHE`` (no disk cache when unset).
+    **kwargs
+        Passed to :func:`scenesim.ism.image_source_rir` (``max_order``, ``length_s``, ...).
+
+    Returns
+    -------
+    ndarray (n_mics, n_taps)
+    """
+    from scenesim.ism import image_source_rir
+
+    key = rir_key(room, source_m, mics_m, fs=fs, **kwargs)
+    with _lock:
+        hit = _memory.get(key)
+        if hit is not None:
+            _memory.move_to_end(key)
+            return hit.copy()
+    directory = _cache_dir(cache_dir)
+    path = None if directory is None else directory / f"{key}.npy"
+    if path is not None and path.is_file():
+        try:
+            value = np.load(path, allow_pickle=False)
+        except (OSError, ValueError):
+            value = None  # unreadable: recompute and overwrite below
+        if value is not None:
+            _remember(key, value)
+            return value.copy()
+    value = np.asarray(image_source_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
+    value.setflags(write=False)
+    _remember(key, value)
+    if path is not None:
+        _save_atomic(path, value)
+    return value.copy()
+
+
+def clear_memory_cache() -> None:
+    """Forget every RIR held in memory (disk files are left alone)."""
+    with _lock:
+        _memory.clear()
+
+
+def memory_cache_size() -> int:
+    """Number of RIRs currently held in memory."""
+    with _lock:
+        return len(_memory)

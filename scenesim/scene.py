@@ -1,0 +1,504 @@
+"""Scenes as values, rendered to signal images at the mic pair (issue 2; algorithms.md 2, 4, 8).
+
+A :class:`Scene` is a frozen description: mic pair, optional shoebox room, speech source,
+noise sources, SNR and seed.  Rendering is split in two steps so that a sweep over SNRs
+renders the geometry once:
+
+1. :func:`render_images` -> :class:`SceneImages`: the speech image ``(2, n)``, the noise image
+   ``(2, n)`` at unit gain (each noise source at its ``gain_db``, before SNR scaling), and the
+   clean **reference** ``(1, n)``: speech as received at the reference mic (channel 0) by the
+   direct path, time-aligned with the speech image.
+2. :meth:`SceneImages.mix` -> :class:`RenderedScene`: noise scaled so that
+   ``10 log10(P_speech / P_noise) = snr_db`` at channel 0 (thesis eq. 7.1; ``snr_mode``
+   "total" or "active"), optional sensor self-noise added after the scaling.
+
+Propagation:
+
+* **Free field** (``room=None``) with ``far_field=True``: plane waves of unit amplitude
+  (:func:`scenesim.freefield.plane_wave`; distances are ignored, a bulk delay of d/(2c) makes
+  every delay causal).  The reference is channel 0 of the speech image itself.
+* Free field with ``far_field=False``: point sources, ``s(t - R/c) / (4 pi R)``; the reference
+  is again channel 0 (in free field the direct path is all there is).
+* **Room**: point sources through the image-source RIRs (:func:`scenesim.cache.cached_rir`;
+  ``far_field`` is not used).  Reference ``"direct"``: the order-0 image alone (RIR with
+  ``max_order=0``); ``"early50"``: the full RIR to channel 0 cut 50 ms after the direct
+  path's arrival.  Both use the RIRs' time origin (t = 0 at emission), so the reference is
+  aligned with the speech image.
+
+Noise fields: ``"point"`` sources propagate like speech; ``"diffuse"`` and ``"incoherent"``
+fields are generated at the mics directly (:mod:`scenesim.noise_fields`), from the given
+noise (mono, or two channels) or, when the signal is ``None``, from seeded white noise.
+Randomness comes from ``Scene.seed`` only (one independent stream per noise source and one
+for the sensor noise), so a scene renders to the same numbers every time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal as sps
+
+from scenesim.cache import cached_rir, canonical, stable_hash
+from scenesim.errors import ParameterError
+from scenesim.freefield import plane_wave, point_source
+from scenesim.geometry import SPEED_OF_SOUND_MPS, MicPair
+from scenesim.mixing import active_speech_power, noise_gain_for_snr, signal_power
+from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
+from scenesim.room import ShoeBox
+from scenesim.validate import (
+    check_choice,
+    check_finite_number,
+    check_fs,
+    check_int,
+    check_positive,
+    check_range,
+)
+
+SCENE_FORMAT = "scenesim-scene-v1"
+"""Part of every scene key; bumped when rendering changes its numbers."""
+
+NOISE_FIELDS = ("point", "diffuse", "incoherent")
+SNR_MODES = ("total", "active")
+REFERENCES = ("direct", "early50")
+EARLY_REFERENCE_S = 0.05
+"""Length of the early part kept after the direct path by ``reference="early50"``."""
+
+_NOISE_STREAM = 1
+_SENSOR_STREAM = 2
+
+
+def _check_position(name: str, value):
+    if value is None:
+        return None
+    p = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    if p is None or p.shape != (3,) or not np.all(np.isfinite(p)):
+        raise ParameterError(name, value, "None or 3 finite coordinates in metres")
+    return tuple(float(v) for v in p)
+
+
+class _Placed:
+    """Shared placement logic of :class:`SourcePlacement` and :class:`NoiseSource`."""
+
+    def _validate_placement(self):
+        object.__setattr__(
+            self, "azimuth_deg", check_finite_number("azimuth_deg", self.azimuth_deg)
+        )
+        object.__setattr__(self, "distance_m", check_positive("distance_m", self.distance_m))
+        object.__setattr__(
+            self, "elevation_deg", check_range("elevation_deg", self.elevation_deg, -90.0, 90.0)
+        )
+        object.__setattr__(self, "position_m", _check_position("position_m", self.position_m))
+
+    def position(self, pair: MicPair) -> np.ndarray:
+        """Absolute position ``(3,)`` in metres for this pair."""
+        if self.position_m is not None:
+            return np.asarray(self.position_m)
+        return pair.source_position(self.azimuth_deg, self.distance_m, self.elevation_deg)
+
+    def direction(self, pair: MicPair) -> tuple[float, float]:
+        """Array-relative ``(azimuth_deg, elevation_deg)`` seen from the pair centre."""
+        if self.position_m is None:
+            return self.azimuth_deg, self.elevation_deg
+        v = np.asarray(self.position_m) - np.asarray(pair.center_m)
+        r = float(np.linalg.norm(v))
+        if np.hypot(v[0], v[1]) == 0.0:
+            raise ParameterError(
+                "position_m", self.position_m, "a point off the vertical through the pair centre"
+            )
+        return pair.azimuth_of(self.position_m), float(np.rad2deg(np.arcsin(v[2] / r)))
+
+
+@dataclass(frozen=True)
+class SourcePlacement(_Placed):
+    """Where a source is: array-relative angles and distance, or an absolute position.
+
+    Parameters
+    ----------
+    azimuth_deg : float
+        Azimuth from the array axis (endfire = 0 deg), counter-clockwise.
+    distance_m : float
+        Distance from the pair centre in metres (> 0; unused by far-field plane waves).
+    elevation_deg : float
+        Elevation above the horizontal plane, in [-90, 90].
+    position_m : 3 floats, optional
+        Absolute position in metres; when given it takes precedence over the angles.
+    """
+
+    azimuth_deg: float = 45.0
+    distance_m: float = 1.0
+    elevation_deg: float = 0.0
+    position_m: tuple[float, float, float] | None = None
+
+    def __post_init__(self):
+        self._validate_placement()
+
+
+@dataclass(frozen=True)
+class NoiseSource(_Placed):
+    """A noise source: a point source placed like speech, or a diffuse/incoherent field.
+
+    Parameters
+    ----------
+    field : {"point", "diffuse", "incoherent"}
+        Point source (propagated like speech), spherically isotropic field, or spatially
+        incoherent noise (wind).  The placement is ignored for the two fields.
+    azimuth_deg, distance_m, elevation_deg, position_m
+        As in :class:`SourcePlacement` (default: 270 deg, broadside, 1 m).
+    gain_db : float
+        Level of this source relative to the others in the scene's noise image.
+    """
+
+    field: str = "point"
+    azimuth_deg: float = 270.0
+    distance_m: float = 1.0
+    elevation_deg: float = 0.0
+    gain_db: float = 0.0
+    position_m: tuple[float, float, float] | None = None
+
+    def __post_init__(self):
+        check_choice("field", self.field, NOISE_FIELDS)
+        self._validate_placement()
+        object.__setattr__(self, "gain_db", check_finite_number("gain_db", self.gain_db))
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete, hashable description of one acoustic condition.
+
+    Parameters
+    ----------
+    fs : int
+        Sampling rate in Hz.
+    pair : MicPair
+        The array (channel 0 = front = reference mic).
+    room : ShoeBox, optional
+        None: anechoic free field.
+    speech : SourcePlacement
+        Where the talker is (default 45 deg, 1 m).
+    noises : tuple of NoiseSource
+        Noise sources (default one point source at 270 deg, 1 m); may be empty.
+    snr_db : float
+        Target SNR at the reference mic (used by :func:`render_scene`).
+    far_field : bool
+        Free field only: plane waves (True) or point sources (False).
+    snr_mode : {"total", "active"}
+        Speech power over the whole signal or its P.56-style active level.
+    reference : {"direct", "early50"}
+        Reference signal in a room: direct path, or direct path + first 50 ms.
+    sensor_noise_db : float, optional
+        Sensor self-noise power relative to the speech power at the reference mic (dB).
+    max_order : int, optional
+        Image-source order bound in a room (None: all images within the RIR length).
+    seed : int
+        Seed of every random draw of the rendering.
+
+    Raises
+    ------
+    ParameterError
+        A bad value, or (in a room) a mic or a point source outside the room / too close
+        to a wall.
+    """
+
+    fs: int = 16000
+    pair: MicPair = field(default_factory=MicPair)
+    room: ShoeBox | None = None
+    speech: SourcePlacement = field(default_factory=SourcePlacement)
+    noises: tuple[NoiseSource, ...] = (NoiseSource(),)
+    snr_db: float = 0.0
+    far_field: bool = True
+    snr_mode: str = "total"
+    reference: str = "direct"
+    sensor_noise_db: float | None = None
+    max_order: int | None = None
+    seed: int = 0
+
+    def __post_init__(self):
+        object.__setattr__(self, "fs", check_fs(self.fs))
+        if not isinstance(self.pair, MicPair):
+            raise ParameterError("pair", self.pair, "a scenesim.geometry.MicPair")
+        if self.room is not None and not isinstance(self.room, ShoeBox):
+            raise ParameterError("room", self.room, "None or a scenesim.room.ShoeBox")
+        if not isinstance(self.speech, SourcePlacement):
+            raise ParameterError("speech", self.speech, "a SourcePlacement")
+        if isinstance(self.noises, NoiseSource) or not isinstance(self.noises, Sequence):
+            raise ParameterError("noises", self.noises, "a tuple of NoiseSource")
+        noises = tuple(self.noises)
+        for k, n in enumerate(noises):
+            if not isinstance(n, NoiseSource):
+                raise ParameterError(f"noises[{k}]", n, "a NoiseSource")
+        object.__setattr__(self, "noises", noises)
+        object.__setattr__(self, "snr_db", check_finite_number("snr_db", self.snr_db))
+        if not isinstance(self.far_field, (bool, np.bool_)):
+            raise ParameterError("far_field", self.far_field, "True or False")
+        object.__setattr__(self, "far_field", bool(self.far_field))
+        check_choice("snr_mode", self.snr_mode, SNR_MODES)
+        check_choice("reference", self.reference, REFERENCES)
+        if self.sensor_noise_db is not None:
+            object.__setattr__(
+                self,
+                "sensor_noise_db",
+                check_finite_number("sensor_noise_db", self.sensor_noise_db),
+            )
+        if self.max_order is not None:
+            object.__setattr__(self, "max_order", check_int("max_order", self.max_order, minimum=0))
+        object.__setattr__(self, "seed", check_int("seed", self.seed, minimum=0))
+        if self.room is not None:
+            self._check_geometry_in_room()
+        else:
+            self._check_free_field_geometry()
+
+    def _check_geometry_in_room(self):
+        room = self.room
+        room.check_inside(self.pair.center_m, name="pair.center_m")
+        for k, p in enumerate(self.pair.positions_m):
+            room.check_inside(p, name=f"pair.positions_m[{k}]")
+        room.check_inside(self.speech.position(self.pair), name="speech.position_m")
+        for k, n in enumerate(self.noises):
+            if n.field == "point":
+                room.check_inside(n.position(self.pair), name=f"noises[{k}].position_m")
+
+    def _check_free_field_geometry(self):
+        # Point sources must not sit on a mic (1/(4 pi R) would blow up).
+        sources = [("speech", self.speech)] + [
+            (f"noises[{k}]", n) for k, n in enumerate(self.noises) if n.field == "point"
+        ]
+        for name, src in sources:
+            if self.far_field:
+                src.direction(self.pair)  # raises for a position on the pair centre
+                continue
+            dist = np.linalg.norm(self.pair.positions_m - src.position(self.pair)[None, :], axis=1)
+            if np.any(dist < 1e-3):
+                raise ParameterError(
+                    f"{name}.position_m", src.position_m, "a point >= 1 mm from every mic"
+                )
+
+    @property
+    def speed_of_sound_mps(self) -> float:
+        """``room.c`` in a room, else 343 m/s."""
+        return self.room.c if self.room is not None else SPEED_OF_SOUND_MPS
+
+    def to_dict(self) -> dict:
+        """Plain JSON-ready nested dict of every parameter (what :meth:`key` hashes)."""
+        return canonical(self)
+
+    def key(self) -> str:
+        """Stable hex sha256 of the canonical JSON of every parameter (same across processes)."""
+        return stable_hash({"format": SCENE_FORMAT, "scene": self})
+
+
+def _freeze(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class RenderedScene:
+    """One scene mixed at one SNR; all arrays float64 ``(n_channels, n)``, freshly allocated.
+
+    ``mixture = speech_image + noise_image``; ``noise_image`` is the scaled acoustic noise
+    plus any sensor noise; ``noise_gain`` the amplitude factor applied to the unit-gain
+    noise image; ``reference`` ``(1, n)`` the clean speech at channel 0 (direct path).
+    """
+
+    mixture: np.ndarray
+    speech_image: np.ndarray
+    noise_image: np.ndarray
+    reference: np.ndarray
+    fs: int
+    snr_db: float
+    noise_gain: float
+    scene: Scene
+
+
+@dataclass(frozen=True)
+class SceneImages:
+    """Speech and unit-gain noise images of a scene, ready to be mixed at any SNR.
+
+    Attributes
+    ----------
+    speech_image : ndarray (2, n)
+    noise_image : ndarray (2, n)
+        Sum of the noise sources, each at its ``gain_db``; before SNR scaling.
+    reference : ndarray (1, n)
+        Clean speech at the reference mic by the direct path (see the module docstring).
+    fs : int
+    rirs : dict of str -> ndarray
+        Room RIRs used: ``"speech"`` (2, taps), ``"speech_reference"`` (1, taps), and
+        ``"noise{k}"`` for point noise k.  Empty in free field.
+    scene : Scene
+
+    The arrays are read-only: mixing at many SNRs never alters them.
+    """
+
+    speech_image: np.ndarray
+    noise_image: np.ndarray
+    reference: np.ndarray
+    fs: int
+    rirs: Mapping[str, np.ndarray]
+    scene: Scene
+
+    def mix(self, snr_db: float | None = None) -> RenderedScene:
+        """Scale the noise to ``snr_db`` (default ``scene.snr_db``) at channel 0 and add it.
+
+        Sensor self-noise (``scene.sensor_noise_db``) is added after the scaling, at that
+        many dB relative to the speech power at channel 0 (same power definition as
+        ``snr_mode``), so with sensor noise the SNR is slightly below the target.
+        A scene without noise sources gets gain 0 (clean mixture, plus sensor noise).
+        """
+        scene = self.scene
+        snr = scene.snr_db if snr_db is None else check_finite_number("snr_db", snr_db)
+        ref_speech = self.speech_image[0]
+        if scene.noises:
+            gain = noise_gain_for_snr(
+                ref_speech, self.noise_image[0], snr, mode=scene.snr_mode, fs=self.fs
+            )
+        else:
+            gain = 0.0
+        noise = gain * self.noise_image
+        if scene.sensor_noise_db is not None:
+            if scene.snr_mode == "active":
+                p_s = active_speech_power(ref_speech, self.fs)
+            else:
+                p_s = signal_power(ref_speech)
+            level = 10.0 * np.log10(p_s) + scene.sensor_noise_db
+            rng = np.random.default_rng([scene.seed, _SENSOR_STREAM])
+            noise = noise + sensor_noise(
+                noise.shape[1], n_channels=noise.shape[0], level_db=level, rng=rng
+            )
+        return RenderedScene(
+            mixture=self.speech_image + noise,
+            speech_image=self.speech_image.copy(),
+            noise_image=noise,
+            reference=self.reference.copy(),
+            fs=self.fs,
+            snr_db=snr,
+            noise_gain=float(gain),
+            scene=scene,
+        )
+
+
+def _mono(x, name: str) -> np.ndarray:
+    arr = np.asarray(x)
+    if arr.ndim == 2 and arr.shape[0] == 1:
+        arr = arr[0]
+    if arr.ndim != 1 or arr.dtype.kind not in "fiu":
+        raise ParameterError(name, arr, "a mono signal shaped (n_samples,)")
+    arr = arr.astype(np.float64, copy=False)
+    if not np.all(np.isfinite(arr)):
+        raise ParameterError(name, arr, "finite values only (no NaN or Inf)")
+    return arr
+
+
+def _convolve(x: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
+    """``x`` (n,) convolved with every row of ``h`` (m, taps), cut to ``n`` samples."""
+    return sps.oaconvolve(x[None, :], h, mode="full", axes=1)[:, :n]
+
+
+def _render_point(scene: Scene, x: np.ndarray, src: SourcePlacement, label: str, rirs: dict):
+    """Image ``(2, n)`` and reference ``(1, n)`` of a point source (speech or point noise)."""
+    pair, fs, c, n = scene.pair, scene.fs, scene.speed_of_sound_mps, x.size
+    if scene.room is None:
+        if scene.far_field:
+            az, el = src.direction(pair)
+            img = plane_wave(x, pair, azimuth_deg=az, elevation_deg=el, fs=fs, c=c)
+        else:
+            img = point_source(x, pair, position_m=src.position(pair), fs=fs, c=c)
+        return img, img[:1].copy()
+    pos = src.position(pair)
+    h = cached_rir(scene.room, pos, pair.positions_m, fs=fs, max_order=scene.max_order)
+    rirs[label] = h
+    img = _convolve(x, h, n)
+    if label != "speech":
+        return img, None
+    if scene.reference == "direct":
+        h_ref = cached_rir(scene.room, pos, pair.positions_m[:1], fs=fs, max_order=0)
+    else:
+        r0 = float(np.linalg.norm(pair.positions_m[0] - pos))
+        cut = int(np.ceil((r0 / c + EARLY_REFERENCE_S) * fs))
+        h_ref = h[:1, :cut]
+    rirs[label + "_reference"] = h_ref
+    return img, _convolve(x, h_ref, n)
+
+
+def _noise_input(sig, k: int, n: int, field_name: str) -> np.ndarray | None:
+    name = f"noise_signals[{k}]"
+    if sig is None:
+        return None
+    arr = np.asarray(sig)
+    if field_name == "point" or arr.ndim == 1:
+        arr = _mono(arr, name)[None, :]
+    elif arr.ndim != 2 or arr.shape[0] not in (1, 2):
+        raise ParameterError(name, arr, "a mono (n,) or two-channel (2, n) noise")
+    if arr.dtype.kind not in "fiu" or not np.all(np.isfinite(arr)):
+        raise ParameterError(name, arr, "finite real values")
+    if arr.shape[1] < n:
+        raise ParameterError(name, arr, f"at least {n} samples (the speech length)")
+    return arr.astype(np.float64, copy=False)
+
+
+def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneImages:
+    """Render the speech image, the unit-gain noise image and the reference of a scene.
+
+    Parameters
+    ----------
+    scene : Scene
+    speech : array (n,)
+        Clean speech (the source signal); the output length is ``n``.
+    noise_signals : sequence, one per ``scene.noises``
+        Each ``(n_noise,)`` mono, or ``(2, n_noise)`` for a diffuse/incoherent field given
+        as two independent channels, with ``n_noise >= n`` (longer ones are cut; a diffuse
+        field from a mono noise uses a second, disjoint part of it when long enough).
+        ``None`` draws seeded white Gaussian noise.
+
+    Returns
+    -------
+    SceneImages
+    """
+    if not isinstance(scene, Scene):
+        raise ParameterError("scene", scene, "a scenesim.scene.Scene")
+    s = _mono(speech, "speech")
+    if not np.any(s):
+        raise ParameterError("speech", s, "a signal with non-zero power")
+    n = s.size
+    if isinstance(noise_signals, np.ndarray) or not isinstance(noise_signals, Sequence):
+        raise ParameterError(
+            "noise_signals", noise_signals, "a sequence with one signal per noise source"
+        )
+    if len(noise_signals) != len(scene.noises):
+        raise ParameterError(
+            "noise_signals",
+            f"{len(noise_signals)} signal(s)",
+            f"{len(scene.noises)}, one per NoiseSource",
+        )
+    rirs: dict[str, np.ndarray] = {}
+    speech_image, reference = _render_point(scene, s, scene.speech, "speech", rirs)
+    noise_image = np.zeros((2, n))
+    for k, (src, sig) in enumerate(zip(scene.noises, noise_signals)):
+        rng = np.random.default_rng([scene.seed, _NOISE_STREAM, k])
+        arr = _noise_input(sig, k, n, src.field)
+        if src.field == "point":
+            mono = rng.standard_normal(n) if arr is None else arr[0, :n]
+            img, _ = _render_point(scene, mono, src, f"noise{k}", rirs)
+        elif src.field == "diffuse":
+            img = diffuse_noise(
+                n, scene.pair, fs=scene.fs, rng=rng, c=scene.speed_of_sound_mps, source=arr
+            )
+        else:
+            img = incoherent_noise(n, rng=rng, source=arr)
+        noise_image += 10.0 ** (src.gain_db / 20.0) * img
+    return SceneImages(
+        speech_image=_freeze(speech_image),
+        noise_image=_freeze(noise_image),
+        reference=_freeze(reference),
+        fs=scene.fs,
+        rirs={k: _freeze(v) for k, v in rirs.items()},
+        scene=scene,
+    )
+
+
+def render_scene(scene: Scene, speech, noise_signals: Sequence = ()) -> RenderedScene:
+    """``render_images(scene, speech, noise_signals).mix(scene.snr_db)``."""
+    return render_images(scene, speech, noise_signals).mix(scene.snr_db)
