@@ -69,6 +69,7 @@ class ChainParams(Params):
     """
 
     _stages: ClassVar[tuple[_StageInfo, ...]] = ()
+    _owner: ClassVar[type] = None  # the Chain subclass these params belong to
 
     @property
     def needs_geometry(self) -> bool:
@@ -107,6 +108,10 @@ class ChainParams(Params):
             if info.needs_geometry and geometry:
                 value = dataclasses.replace(value, **geometry)
             object.__setattr__(self, info.prefix, value)
+
+    def __reduce__(self):
+        # Through the owning chain class, so params of chains made at runtime pickle too.
+        return (_restore_params, (_class_ref(self._owner), self.to_json()))
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -170,7 +175,7 @@ def _build_params_class(owner: type) -> type:
         fields,
         bases=(ChainParams,),
         frozen=True,
-        namespace={"_stages": tuple(infos), "__module__": owner.__module__},
+        namespace={"_stages": tuple(infos), "_owner": owner, "__module__": owner.__module__},
     )
     # Pickle finds the class as <module>.<Owner>.Params (resolved through the descriptor).
     cls.__qualname__ = f"{owner.__qualname__}.Params"
@@ -305,18 +310,28 @@ class Chain(Enhancer):
 
     def __reduce__(self):
         # Rebuild from JSON params: works for chain classes made at runtime too.
-        cls = type(self)
-        module = sys.modules.get(cls.__module__)
-        if getattr(module, cls.__qualname__, None) is cls:
-            ref: Any = cls
-        else:
-            ref = (cls.name, cls.stages, cls.version, cls.summary)
-        return (_restore_chain, (ref, self._params.to_json()))
+        return (_restore_chain, (_class_ref(type(self)), self._params.to_json()))
+
+
+def _class_ref(cls: type):
+    """The class itself if pickle can find it by name, else the arguments of ``chain_class``."""
+    module = sys.modules.get(cls.__module__)
+    if getattr(module, cls.__qualname__, None) is cls:
+        return cls
+    return (cls.name, cls.stages, cls.version, cls.summary)
+
+
+def _resolve(ref) -> type:
+    return ref if isinstance(ref, type) else chain_class(ref[0], ref[1], version=ref[2], summary=ref[3])
 
 
 def _restore_chain(ref, params_json: str) -> Chain:
-    cls = ref if isinstance(ref, type) else chain_class(ref[0], ref[1], version=ref[2], summary=ref[3])
+    cls = _resolve(ref)
     return cls(cls.Params.from_json(params_json))
+
+
+def _restore_params(ref, params_json: str) -> ChainParams:
+    return _resolve(ref).Params.from_json(params_json)
 
 
 _CHAIN_CLASSES: dict[tuple, type] = {}

@@ -14,7 +14,8 @@ Modelled on Gymnasium's ``envs/registration.py``:
       [project.entry-points."scenesim.enhancers"]
       myplug = "myplug:Gain"
 
-  The entry-point name is the registry name.  Entry points are scanned once, lazily, on
+  The entry-point name is the registry name; ``"name@2"`` adds version 2 of an existing
+  name (a bare name that is already registered is refused: plugins cannot shadow).  Entry points are scanned once, lazily, on
   the first listing (``available``/``describe``) or on the first lookup of a name that is
   not built in.
 
@@ -185,7 +186,11 @@ def register(
     with _LOCK:
         existing = _REGISTRY.setdefault(base, [])
         for other in existing:
-            if other.version == spec.version or (other.entry_point == spec.entry_point):
+            # A second entry must state a version (its class is not imported to find it);
+            # a clash with a not-yet-loaded entry's version is caught when both are loaded.
+            if spec.version is None or other.version == spec.version or (
+                other.entry_point == spec.entry_point
+            ):
                 shown = "" if spec.version is None else f"@{spec.version}"
                 raise PluginError(
                     f"enhancer {base}{shown} is already registered (by package {other.source!r}, "
@@ -223,8 +228,9 @@ def _load_plugins() -> None:
         for ep in sorted(eps, key=lambda e: e.name):
             dist = getattr(ep, "dist", None)
             source = getattr(dist, "name", None) or ep.value.partition(":")[0].split(".")[0]
+            base, _, version = ep.name.partition("@")
             try:
-                register(ep.name, ep.value, _source=source)
+                register(base, ep.value, version=version or None, _source=source)
             except (PluginError, ParameterError) as exc:
                 # Keep it listed but broken, so asking for it explains what went wrong.
                 name = ep.name.partition("@")[0] or ep.value
@@ -287,6 +293,11 @@ def get_spec(name: str) -> EnhancerSpec:
     for spec in specs:
         if spec.version is None:  # need the class to know which version this is
             spec.load()
+    versions = [s.version for s in specs]
+    for v in set(versions):
+        if versions.count(v) > 1:
+            clash = [f"{s.source} ({s.entry_point!r})" for s in specs if s.version == v]
+            raise PluginError(f"enhancer {base}@{v} is provided twice: " + " and ".join(clash))
     if version is not None:
         for spec in specs:
             if spec.version == version:
