@@ -290,7 +290,8 @@ def ms2001_step(S: np.ndarray, state: MS2001State, cfg: MS2001Config) -> tuple[n
         st.t += 1
         sum_y = max(yft.sum(), _TINY)
         sum_sn2 = max(sn2.sum(), _TINY)
-        acb = 1.0 / (1.0 + (p.sum() / sum_y - 1.0) ** 2)                     # (9)
+        ratio = min(p.sum() / sum_y, 1e100)  # bounded: a silent frame must not overflow
+        acb = 1.0 / (1.0 + (ratio - 1.0) ** 2)                               # (9)
         ac = aca * ac + (1.0 - aca) * max(acb, aca)                           # (10)
         ah = amax * ac / (1.0 + (p / np.maximum(sn2, _TINY) - 1.0) ** 2)      # (11)
         snr = max(p.sum() / sum_sn2, _TINY)

@@ -57,8 +57,13 @@ def cardioid_pair(p: np.ndarray, *, delay_samples: float) -> tuple[np.ndarray, n
 
 
 def harmonic_speechlike(n: int, *, fs: int = FS, f0_hz: float = 150.0, n_harm: int = 20,
-                        syllable_hz: float = 4.0, pause_every_s: float = 1.0, pause_s: float = 0.25) -> np.ndarray:
-    """Amplitude-modulated harmonic complex with pauses: a deterministic speech-like test signal."""
+                        syllable_hz: float = 4.0, pause_every_s: float = 1.0, pause_s: float = 0.4) -> np.ndarray:
+    """Amplitude-modulated harmonic complex with pauses: a deterministic speech-like test signal.
+
+    150 Hz fundamental, 20 harmonics (1/h amplitudes), 4 Hz raised-cosine syllable envelope,
+    silent for the last ``pause_s`` of every ``pause_every_s`` (40 % pauses by default,
+    like read speech with phrase breaks).
+    """
     t = np.arange(n) / fs
     harm = np.arange(1, n_harm + 1)
     amp = 1.0 / harm
