@@ -1,6 +1,99 @@
-"""`scenesim enhance` (being written)."""
+"""``scenesim enhance IN.wav OUT.wav --enhancer NAME [--param k=v ...]``: run one enhancer on a file.
+
+The input is the user's own recording, ``(n_channels, n_samples)`` with channel 0 the
+front/reference mic.  A 1-channel enhancer given a multichannel file gets channel 0 (the
+same convention as a sweep) and says so.  The output is written as a float WAV at the
+input's rate, the same length as the input; its delay relative to the input is the
+enhancer's declared latency, printed at the end.
+
+Stage parameters of a chain use dotted names: ``--param ss.alpha=0.9``.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from enhancers.registry import get, make, with_geometry
+from scenesim.audio import read_audio, write_audio
+from scenesim.errors import DataError, ParameterError
+from scenesim.geometry import SPEED_OF_SOUND_MPS
 
 
 def add_parser(subparsers):
-    p = subparsers.add_parser("enhance", help="(not yet available)")
-    p.set_defaults(func=lambda args: (_ for _ in ()).throw(SystemExit("scenesim enhance: not yet available")))
+    p = subparsers.add_parser(
+        "enhance",
+        help="run an enhancer on your own recording",
+        description=__doc__.split("\n\n", 1)[1],
+    )
+    p.add_argument("input", type=Path, metavar="IN", help="input audio (channel 0 = front/reference mic)")
+    p.add_argument("output", type=Path, metavar="OUT", help="output WAV (float samples)")
+    p.add_argument("--enhancer", "-e", required=True, help="registry name, e.g. eb, ss, eb-ss, das, eb@1")
+    p.add_argument(
+        "--param", "-p", action="append", default=[], metavar="K=V",
+        help="enhancer parameter (repeatable); chain stages as stage.param=value",
+    )
+    p.add_argument("--spacing-m", type=float, default=None, help="mic spacing in metres (enhancers that need geometry)")
+    p.add_argument("--c-mps", type=float, default=None, help="speed of sound in m/s (default 343)")
+    p.add_argument("--trace", type=Path, default=None, metavar="NPZ", help="also save the enhancer's trace (beta, gains, ...) to this .npz")
+    p.set_defaults(func=run)
+    return p
+
+
+def _parse_params(items: list[str]) -> dict[str, str]:
+    values: dict[str, str] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ParameterError("--param", item, "KEY=VALUE")
+        values[key.strip()] = value.strip()
+    return values
+
+
+def run(args) -> int:
+    cls = get(args.enhancer)  # unknown names raise with "Did you mean ...?"
+    params = cls.Params.coerce_strings(_parse_params(args.param))
+    enhancer = make(args.enhancer, **params)
+    tags = enhancer.tags
+    notes = []
+    if args.spacing_m is not None or args.c_mps is not None:
+        if tags.needs_geometry:
+            p = enhancer.params
+            enhancer = with_geometry(
+                enhancer,
+                spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
+                c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
+            )
+        else:
+            notes.append(f"{enhancer.name} needs no geometry: --spacing-m/--c-mps ignored")
+    elif tags.needs_geometry:
+        notes.append(f"using the default spacing_m={enhancer.params.spacing_m} m (set --spacing-m)")
+
+    x, fs = read_audio(args.input)
+    n_in = tags.channels_in
+    if x.shape[0] != n_in:
+        if n_in == 1:
+            notes.append(f"{enhancer.name} takes 1 channel: using channel 0 (reference mic) of {x.shape[0]}")
+            x = x[0:1]
+        else:
+            raise DataError(
+                f"{args.input} has {x.shape[0]} channel(s) but enhancer {enhancer.name!r} expects "
+                f"{n_in} (channel 0 = front/reference mic)"
+            )
+
+    result = enhancer.process(x, fs)
+    write_audio(args.output, result.output, fs, subtype="FLOAT")
+    if args.trace is not None:
+        np.savez(args.trace, **{k.replace(".", "__"): v for k, v in result.trace.items()})
+
+    for note in notes:
+        print(f"scenesim enhance: note: {note}", file=sys.stderr)
+    latency = tags.latency_samples
+    print(
+        f"{enhancer.name}@{enhancer.version}: {args.input} ({x.shape[0]} ch, {x.shape[1]} samples, "
+        f"{fs} Hz) -> {args.output} ({result.output.shape[0]} ch)"
+    )
+    print(f"latency: {latency} samples ({1000.0 * latency / fs:.3f} ms)")
+    return 0
