@@ -1,0 +1,496 @@
+"""``scenesim bench report``: Markdown + CSV tables and PNG figures from the results rows.
+
+:func:`write_report` takes the rows of the store's ``results`` table as dicts (contract
+columns plus extras such as ``trace_json``) and writes under ``OUT_DIR/report/``:
+
+* ``summary.md`` -- the thesis-style tables (input SNR, output SNR, SNR-I, input/output
+  PESQ and PESQ-I, narrow- and wide-band) per system and noise at the thesis geometry,
+  beside the thesis' printed numbers (tables 7.1-7.9) where the condition matches;
+  averages over input SNR per system and noise with the thesis headline (EB-SS average
+  SNR-I 17 / 22 / 18 dB); RT60 and noise-azimuth sweep tables when the rows hold them;
+  failures with their messages; the data sources;
+* ``thesis_comparison.csv``, ``averages.csv``, ``conditions.csv`` (every condition),
+  ``rt60_sweep.csv`` / ``azimuth_sweep.csv`` when present, ``failures.csv``;
+* PNG figures (:mod:`benchmarks.figures`), only those the data supports.
+
+Every statistic is the mean over the rows of a condition (seeds, talkers) with the sample
+standard deviation shown as ``± std`` when there is more than one.  Rows with
+``status = 'error'`` are counted and listed, never averaged.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from benchmarks import figures
+from benchmarks import thesis_reference as T
+from benchmarks.report_tables import (
+    CONDITION_KEYS,
+    METRIC_FIELDS,
+    aggregate,
+    distinct,
+    fmt,
+    markdown_table,
+    normalise_rows,
+    sweep_slice,
+    write_csv,
+)
+
+REPORT_DIRNAME = "report"
+_ORDER = ("passthrough", "eb", "ss", "eb-ss")
+#: The "All conditions" Markdown table is included up to this many conditions (CSV always).
+MAX_MARKDOWN_CONDITIONS = 150
+
+_THESIS_COLS = ("snr_out_db", "snr_i_db", "pesq_in", "pesq_out", "pesq_i")
+
+
+def _enhancer_order(names: Iterable[str]) -> list[str]:
+    return sorted(
+        set(names), key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), str(n))
+    )
+
+
+def _with_std(fields: Sequence[str]) -> list[str]:
+    return [c for f in fields for c in (f, f + "_std")]
+
+
+def _label(name: str) -> str:
+    system = T.thesis_system(name)
+    return f"{system} (`{name}`)" if system else f"`{name}`"
+
+
+# -- tables --------------------------------------------------------------------------------
+
+
+def thesis_comparison(ok_rows: Sequence[dict]) -> list[dict[str, Any]]:
+    """Per (enhancer, noise, input SNR) at the thesis geometry: our means beside the thesis'."""
+    rows = [r for r in ok_rows if T.is_thesis_condition(r)]
+    out = aggregate(rows, ("enhancer", "noise", "snr_in_db"))
+    for rec in out:
+        ref = T.thesis_row(rec["enhancer"], rec["noise"], rec["snr_in_db"])
+        rec["thesis_system"] = T.thesis_system(rec["enhancer"])
+        rec["thesis_table"] = ref.table if ref else None
+        for col in _THESIS_COLS:
+            rec["thesis_" + col] = getattr(ref, col) if ref else None
+    return sorted(
+        out,
+        key=lambda r: (
+            _enhancer_order([r["enhancer"], *_ORDER]).index(r["enhancer"]),
+            r["noise"],
+            r["snr_in_db"] if r["snr_in_db"] is not None else math.inf,
+        ),
+    )
+
+
+def averages(comparison: Sequence[dict]) -> list[dict[str, Any]]:
+    """Mean over input SNRs of the per-SNR means, per (enhancer, noise); the thesis' mean is
+    taken over the same input SNRs (those both have)."""
+    groups: dict[tuple, list[dict]] = {}
+    for rec in comparison:
+        groups.setdefault((rec["enhancer"], rec["noise"]), []).append(rec)
+    out = []
+    for (name, noise), recs in groups.items():
+        avg: dict[str, Any] = {
+            "enhancer": name,
+            "noise": noise,
+            "thesis_system": T.thesis_system(name),
+            "snr_values_db": " ".join(
+                f"{r['snr_in_db']:g}" for r in recs if r["snr_in_db"] is not None
+            ),
+        }
+        for f in ("snr_i_db", "pesq_nb_out", "pesq_wb_out", "pesq_nb_i", "pesq_wb_i", "stoi_out"):
+            vals = [r[f] for r in recs if r.get(f) is not None]
+            avg[f] = sum(vals) / len(vals) if vals else None
+        matched = [r for r in recs if r.get("thesis_table")]
+        for col in ("snr_i_db", "pesq_out", "pesq_i"):
+            vals = [r["thesis_" + col] for r in matched]
+            avg["thesis_" + col] = sum(vals) / len(vals) if vals else None
+        avg["thesis_n_snr"] = len(matched)
+        out.append(avg)
+    order = _enhancer_order(r["enhancer"] for r in out)
+    return sorted(out, key=lambda r: (order.index(r["enhancer"]), r["noise"]))
+
+
+def _sweep(ok_rows, vary: str, fixed: tuple[str, ...]) -> tuple[list[dict], tuple | None, list]:
+    """Per (enhancer, noise, ``vary``) over the rows of :func:`sweep_slice` (other columns
+    fixed; mean over the common input SNRs, seeds and talkers)."""
+    sel, base, snrs = sweep_slice(ok_rows, vary, fixed)
+    if not sel:
+        return [], None, []
+    agg = aggregate(sel, ("enhancer", "noise", vary))
+    order = _enhancer_order(r["enhancer"] for r in agg)
+    agg.sort(key=lambda r: (order.index(r["enhancer"]), str(r["noise"])))
+    return agg, base, snrs
+
+
+def _snr_text(snrs) -> str:
+    return ", ".join(f"{s:g}" for s in snrs) + " dB"
+
+
+def _failure_label(part: str) -> str:
+    head = part.split(":", 1)[0].strip()
+    return head if head and " " not in head else "other"
+
+
+def failures(rows: Sequence[dict]) -> dict[str, Any]:
+    """Counts and messages: enhancer failures (status 'error'), metric failures in ok rows,
+    latency warnings."""
+    errors = [r for r in rows if r["status"] != "ok"]
+    by_message = Counter(str(r.get("error") or "(no message)") for r in errors)
+    metric = Counter()
+    examples: dict[str, str] = {}
+    for r in rows:
+        if r["status"] == "ok" and r.get("error"):
+            for part in str(r["error"]).split("; "):
+                label = _failure_label(part)
+                metric[label] += 1
+                examples.setdefault(label, part)
+    latency = [r for r in rows if r.get("latency_check")]
+    return {
+        "n_error_rows": len(errors),
+        "error_messages": by_message.most_common(),
+        "error_rows": errors,
+        "metric_failures": metric.most_common(),
+        "metric_examples": examples,
+        "latency_warnings": latency,
+    }
+
+
+# -- Markdown ------------------------------------------------------------------------------
+
+
+def _pm(rec, f, digits=2):
+    return fmt(rec.get(f), digits, rec.get(f + "_std"))
+
+
+def _thesis_section(comparison: Sequence[dict]) -> list[str]:
+    g = T.THESIS_GEOMETRY
+    lines = [
+        "## Thesis conditions",
+        "",
+        f"Anechoic, speech at {g['speech_az_deg']:g}°, point noise at {g['noise_az_deg']:g}°. "
+        "Ours: mean ± std over seeds/talkers (n rows). Thesis: tables 7.1–7.9 as printed "
+        "(P.862; the thesis does not say narrow- or wide-band, so ours are given in both). "
+        "SNR-I = output SNR − input SNR measured at the reference mic.",
+        "",
+    ]
+    if not comparison:
+        return lines + ["No results at the thesis geometry.", ""]
+    header = [
+        "SNR in (dB)", "SNR in meas.", "SNR out", "SNR out thesis", "SNR-I", "SNR-I thesis",
+        "PESQ in nb", "PESQ in wb", "PESQ in thesis", "PESQ out nb", "PESQ out wb",
+        "PESQ out thesis", "PESQ-I nb", "PESQ-I wb", "PESQ-I thesis", "n",
+    ]  # fmt: skip
+    groups: dict[tuple, list[dict]] = {}
+    for rec in comparison:
+        groups.setdefault((rec["enhancer"], rec["noise"]), []).append(rec)
+    for (name, noise), recs in groups.items():
+        tables = sorted({r["thesis_table"] for r in recs if r.get("thesis_table")})
+        source = f" — thesis table {', '.join(tables)}" if tables else ""
+        lines += [f"### {_label(name)}, {noise}{source}", ""]
+        body = [
+            [
+                fmt(r["snr_in_db"], 0),
+                _pm(r, "snr_in_db_measured"),
+                _pm(r, "snr_out_db"),
+                fmt(r["thesis_snr_out_db"]),
+                _pm(r, "snr_i_db"),
+                fmt(r["thesis_snr_i_db"]),
+                _pm(r, "pesq_nb_in", 3),
+                _pm(r, "pesq_wb_in", 3),
+                fmt(r["thesis_pesq_in"], 3),
+                _pm(r, "pesq_nb_out", 3),
+                _pm(r, "pesq_wb_out", 3),
+                fmt(r["thesis_pesq_out"], 3),
+                _pm(r, "pesq_nb_i", 3),
+                _pm(r, "pesq_wb_i", 3),
+                fmt(r["thesis_pesq_i"], 3),
+                str(r["n"]),
+            ]  # fmt: skip
+            for r in recs
+        ]
+        lines += [markdown_table(header, body), ""]
+    return lines
+
+
+def _averages_section(avg: Sequence[dict]) -> list[str]:
+    lines = ["## Averages over input SNR (thesis geometry)", ""]
+    if not avg:
+        return lines + ["No results at the thesis geometry.", ""]
+    header = [
+        "system", "noise", "input SNRs (dB)", "SNR-I", "SNR-I thesis", "PESQ nb out",
+        "PESQ wb out", "PESQ out thesis", "PESQ-I nb", "PESQ-I wb", "PESQ-I thesis", "STOI out",
+    ]  # fmt: skip
+    body = [
+        [
+            _label(a["enhancer"]),
+            a["noise"],
+            a["snr_values_db"],
+            fmt(a["snr_i_db"]),
+            fmt(a["thesis_snr_i_db"]),
+            fmt(a["pesq_nb_out"], 3),
+            fmt(a["pesq_wb_out"], 3),
+            fmt(a["thesis_pesq_out"], 3),
+            fmt(a["pesq_nb_i"], 3),
+            fmt(a["pesq_wb_i"], 3),
+            fmt(a["thesis_pesq_i"], 3),
+            fmt(a["stoi_out"], 3),
+        ]  # fmt: skip
+        for a in avg
+    ]
+    lines += [markdown_table(header, body), ""]
+    ebss = {a["noise"]: a for a in avg if a["enhancer"] == "eb-ss"}
+    noises = [n for n in T.THESIS_NOISES if n in ebss]
+    if noises:
+        ours = " / ".join(fmt(ebss[n]["snr_i_db"], 1) for n in noises)
+        theirs = " / ".join(f"{T.THESIS_HEADLINE_SNR_I_DB[n]:g}" for n in noises)
+        tables = " / ".join(fmt(ebss[n]["thesis_snr_i_db"], 1) for n in noises)
+        pesq = " / ".join(fmt(ebss[n]["pesq_nb_out"], 2) for n in noises)
+        lines += [
+            f"**Headline (EB-SS average SNR-I, {' / '.join(noises)}):** ours {ours} dB; "
+            f"thesis {theirs} dB as claimed (its tables average {tables} dB over the same "
+            f"input SNRs). Average output PESQ nb: ours {pesq}; thesis about 3.1.",
+            "",
+        ]
+    return lines
+
+
+def _sweep_section(title: str, agg: Sequence[dict], vary: str, unit: str, base_text: str):
+    if not agg:
+        return []
+    header = ["system", "noise", unit, "SNR-I (dB)", "PESQ nb out", "PESQ wb out", "PESQ-I nb",
+              "STOI out", "n"]  # fmt: skip
+    body = [
+        [
+            _label(r["enhancer"]),
+            r["noise"],
+            fmt(r[vary], 3 if vary == "rt60_s" else 0),
+            _pm(r, "snr_i_db"),
+            _pm(r, "pesq_nb_out", 3),
+            _pm(r, "pesq_wb_out", 3),
+            _pm(r, "pesq_nb_i", 3),
+            _pm(r, "stoi_out", 3),
+            str(r["n"]),
+        ]  # fmt: skip
+        for r in agg
+    ]
+    return [f"## {title}", "", base_text, "", markdown_table(header, body), ""]
+
+
+def _conditions_section(cond: Sequence[dict]) -> list[str]:
+    lines = [
+        "## All conditions",
+        "",
+        f"{len(cond)} conditions; every column in `conditions.csv`.",
+        "",
+    ]
+    if not cond or len(cond) > MAX_MARKDOWN_CONDITIONS:
+        return lines
+    header = ["system", "noise", "RT60 (s)", "speech °", "noise °", "SNR in", "SNR out", "SNR-I",
+              "PESQ nb in", "PESQ nb out", "PESQ wb in", "PESQ wb out", "STOI in", "STOI out",
+              "n"]  # fmt: skip
+    body = [
+        [
+            _label(r["enhancer"]),
+            r["noise"],
+            fmt(r["rt60_s"], 3),
+            fmt(r["speech_az_deg"], 0),
+            fmt(r["noise_az_deg"], 0),
+            fmt(r["snr_in_db"], 0),
+            _pm(r, "snr_out_db"),
+            _pm(r, "snr_i_db"),
+            _pm(r, "pesq_nb_in", 3),
+            _pm(r, "pesq_nb_out", 3),
+            _pm(r, "pesq_wb_in", 3),
+            _pm(r, "pesq_wb_out", 3),
+            _pm(r, "stoi_in", 3),
+            _pm(r, "stoi_out", 3),
+            str(r["n"]),
+        ]  # fmt: skip
+        for r in cond
+    ]
+    return lines + [markdown_table(header, body), ""]
+
+
+def _short(text: str, limit: int = 300) -> str:
+    text = " ".join(str(text).split()).replace("|", "\\|")
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _failures_section(fail: Mapping[str, Any], n_rows: int) -> list[str]:
+    lines = [
+        "## Failures",
+        "",
+        f"- Rows with status 'error' (enhancer failed): **{fail['n_error_rows']}** of {n_rows}.",
+    ]
+    for message, count in fail["error_messages"]:
+        lines.append(f"  - {count} × {_short(message)}")
+    lines.append(
+        f"- Metric failures in 'ok' rows (metric left empty): "
+        f"**{sum(c for _, c in fail['metric_failures'])}**."
+    )
+    for label, count in fail["metric_failures"]:
+        lines.append(f"  - `{label}`: {count} × e.g. {_short(fail['metric_examples'][label])}")
+    lines.append(f"- Latency warnings: **{len(fail['latency_warnings'])}**.")
+    for r in fail["latency_warnings"][:10]:
+        lines.append(
+            f"  - {r.get('enhancer')} / {r.get('condition_id')}: {_short(r['latency_check'])}"
+        )
+    return lines + [""]
+
+
+def _sources_section(rows: Sequence[dict]) -> list[str]:
+    counts = Counter((r.get("speech_source") or "?", r.get("noise_source") or "?") for r in rows)
+    body = [[_short(s, 120), _short(n, 120), str(c)] for (s, n), c in sorted(counts.items())]
+    return ["## Data sources", "", markdown_table(["speech", "noise", "rows"], body), ""]
+
+
+def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[str]:
+    n_ok = sum(r["status"] == "ok" for r in rows)
+    lines = ["# scenesim benchmark report", ""]
+    for key, value in (meta or {}).items():
+        lines.append(f"- **{key}**: {_short(value, 500)}")
+    seeds = distinct(rows, "seed")
+    lines += [
+        f"- **rows**: {len(rows)} ({n_ok} ok, {len(rows) - n_ok} error); systems: "
+        f"{', '.join(_enhancer_order(r['enhancer'] for r in rows if r.get('enhancer')))}; "
+        f"noises: {', '.join(str(n) for n in distinct(rows, 'noise'))}; seeds: {len(seeds)}",
+        "",
+    ]
+    return lines
+
+
+# -- entry point ---------------------------------------------------------------------------
+
+
+def write_report(
+    rows: Iterable[Mapping[str, Any]], out_dir, *, meta: Mapping[str, Any] | None = None
+) -> list[Path]:
+    """Write the report for ``rows`` under ``out_dir/report/``; returns the written paths.
+
+    Parameters
+    ----------
+    rows : iterable of mappings
+        Rows of the ``results`` table (contract columns; extra columns such as
+        ``pesq_nb_i``, ``snr_in_db_measured``, ``estoi_out``, ``trace_json`` and
+        ``latency_check`` are used when present).
+    out_dir : path
+        The sweep's output directory (the report goes to its ``report/`` subfolder).
+    meta : mapping, optional
+        Shown at the top of ``summary.md`` (preset, versions, date, ...).
+    """
+    report_dir = Path(out_dir) / REPORT_DIRNAME
+    report_dir.mkdir(parents=True, exist_ok=True)
+    all_rows = normalise_rows(rows)
+    ok = [r for r in all_rows if r["status"] == "ok"]
+    fields = [f for f in METRIC_FIELDS if any(f in r for r in all_rows)]
+    paths: list[Path] = []
+
+    cond = aggregate(ok, CONDITION_KEYS, fields)
+    paths.append(
+        write_csv(report_dir / "conditions.csv", cond, [*CONDITION_KEYS, "n", *_with_std(fields)])
+    )
+    comparison = thesis_comparison(ok)
+    paths.append(
+        write_csv(
+            report_dir / "thesis_comparison.csv",
+            comparison,
+            [
+                "enhancer",
+                "thesis_system",
+                "noise",
+                "snr_in_db",
+                "n",
+                *_with_std(fields),
+                "thesis_table",
+                *("thesis_" + c for c in _THESIS_COLS),
+            ],  # fmt: skip
+        )
+    )
+    avg = averages(comparison)
+    paths.append(
+        write_csv(
+            report_dir / "averages.csv",
+            avg,
+            [
+                "enhancer",
+                "thesis_system",
+                "noise",
+                "snr_values_db",
+                "snr_i_db",
+                "pesq_nb_out",
+                "pesq_wb_out",
+                "pesq_nb_i",
+                "pesq_wb_i",
+                "stoi_out",
+                "thesis_snr_i_db",
+                "thesis_pesq_out",
+                "thesis_pesq_i",
+                "thesis_n_snr",
+            ],  # fmt: skip
+        )
+    )
+    rt60, rt60_base, rt60_snrs = _sweep(ok, "rt60_s", ("speech_az_deg", "noise_az_deg"))
+    azim, azim_base, azim_snrs = _sweep(ok, "noise_az_deg", ("rt60_s", "speech_az_deg"))
+    sweep_cols = ["enhancer", "noise", "{}", "n", *_with_std(fields)]
+    if rt60:
+        cols = [c.format("rt60_s") for c in sweep_cols]
+        paths.append(write_csv(report_dir / "rt60_sweep.csv", rt60, cols))
+    if azim:
+        cols = [c.format("noise_az_deg") for c in sweep_cols]
+        paths.append(write_csv(report_dir / "azimuth_sweep.csv", azim, cols))
+    fail = failures(all_rows)
+    paths.append(
+        write_csv(
+            report_dir / "failures.csv",
+            [
+                r
+                for r in all_rows
+                if r["status"] != "ok" or r.get("error") or r.get("latency_check")
+            ],
+            [
+                "condition_id",
+                "enhancer",
+                "noise",
+                "snr_in_db",
+                "rt60_s",
+                "noise_az_deg",
+                "seed",
+                "status",
+                "error",
+                "latency_check",
+            ],  # fmt: skip
+        )
+    )
+    fig_paths = figures.all_figures(ok, report_dir) if ok else []
+
+    lines = _meta_lines(meta, all_rows)
+    lines += _thesis_section(comparison)
+    lines += _averages_section(avg)
+    if rt60:
+        lines += _sweep_section(
+            "Reverberation (RT60 sweep)", rt60, "rt60_s", "RT60 (s)",
+            f"Speech at {rt60_base[0]:g}°, noise at {rt60_base[1]:g}°; mean ± std over seeds, "
+            f"talkers and the input SNRs {_snr_text(rt60_snrs)}.",
+        )  # fmt: skip
+    if azim:
+        lines += _sweep_section(
+            "Noise azimuth sweep", azim, "noise_az_deg", "noise az (°)",
+            f"RT60 {azim_base[0]:g} s, speech at {azim_base[1]:g}°; mean ± std over seeds, "
+            f"talkers and the input SNRs {_snr_text(azim_snrs)}.",
+        )  # fmt: skip
+    lines += _conditions_section(cond)
+    lines += _failures_section(fail, len(all_rows))
+    lines += _sources_section(all_rows)
+    lines += ["## Files", ""]
+    lines += [f"- `{p.name}`" for p in [*paths, *fig_paths]]
+    if fig_paths:
+        lines += ["", "## Figures", ""]
+        lines += [f"![{p.stem}]({p.name})\n" for p in fig_paths]
+    summary = report_dir / "summary.md"
+    summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return [summary, *paths, *fig_paths]
