@@ -52,6 +52,8 @@ from pathlib import Path
 from typing import Any
 
 from scenesim.errors import ConfigError, ParameterError
+from scenesim.room import RT60_METHODS
+from scenesim.scene import NOISE_FIELDS, REFERENCES, SNR_MODES
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -64,10 +66,7 @@ PRESETS = ("thesis", "reverb", "angles", "smoke")
 ID_VERSION = 1
 """Bumped if the canonical parameter set changes meaning (changes every condition id)."""
 
-NOISE_FIELDS = ("point", "diffuse", "incoherent")
-RT60_METHODS = ("calibrated", "sabine", "eyring")
-SNR_MODES = ("total", "reference")
-REFERENCES = ("direct", "early")
+MIN_WALL_DISTANCE_M = 0.1  # scenesim.room.ShoeBox's default: sources and mics keep off the walls
 SUPPORTED_FS = (8000, 16000)  # PESQ accepts only these
 
 
@@ -476,7 +475,7 @@ class _Parser:
                     raise self.error((), f"rooms.{name}", f"missing key {key!r}")
             dims = self._triple(where, "dims_m", spec["dims_m"], positive=True)
             center = self._triple(where, "pair_center_m", spec["pair_center_m"], positive=False)
-            if any(not (0 < c < d) for c, d in zip(center, dims)):
+            if any(not (MIN_WALL_DISTANCE_M <= c <= d - MIN_WALL_DISTANCE_M) for c, d in zip(center, dims)):
                 raise self.error(where, "pair_center_m", f"{list(center)} is not inside the room {list(dims)}")
             az = spec.get("axis_azimuth_deg", 0.0)
             try:
@@ -571,7 +570,7 @@ class _Parser:
                 for dist in sweep.axes[dist_key]:
                     for az in sweep.axes[az_key]:
                         pos = pair.source_position(az, dist)
-                        if any(not (0 < p < d) for p, d in zip(pos, room.dims_m)):
+                        if any(not (MIN_WALL_DISTANCE_M <= p <= d - MIN_WALL_DISTANCE_M) for p, d in zip(pos, room.dims_m)):
                             table = ("axes",) if dist_key in data.get("axes", {}) else ("fixed",)
                             raise self.error(
                                 table,

@@ -1,6 +1,132 @@
-"""`scenesim bench` (being written)."""
+"""``scenesim bench run | report | list``: run sweeps, write reports, list what is available."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from scenesim.errors import ParameterError
 
 
-def add_parser(subparsers):
-    p = subparsers.add_parser("bench", help="(not yet available)")
-    p.set_defaults(func=lambda args: (_ for _ in ()).throw(SystemExit("scenesim bench: not yet available")))
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench",
+        help="run benchmark sweeps, write reports, list presets/enhancers/noises",
+        description="Benchmark speech enhancers over sweeps of simulated scenes.",
+    )
+    sub = p.add_subparsers(dest="bench_command", metavar="ACTION", required=True)
+
+    run = sub.add_parser(
+        "run",
+        help="run a sweep (resumable: rerunning computes only what is missing)",
+        description="Run a sweep (a preset name or a TOML file) into DIR/results.sqlite and "
+        "write DIR/report.  Rerunning on the same --out computes only what is missing.",
+    )
+    run.add_argument("sweep", metavar="PRESET_OR_TOML", help="thesis, reverb, angles, smoke, or a sweep .toml file")
+    run.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (store + report)")
+    run.add_argument("--executor", choices=("local", "dask"), default="local", help="where to run (default: local)")
+    run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
+    run.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://10.0.0.5:8786 (with --executor dask)")
+    run.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="speech/noise directory (default: $SCENESIM_DATA, else built-in)")
+    run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only the first N conditions")
+    run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
+    run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
+    run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
+    run.set_defaults(func=_run)
+
+    rep = sub.add_parser("report", help="write tables (Markdown, CSV) and figures (PNG) from a store")
+    rep.add_argument("dir", type=Path, metavar="DIR", help="a directory holding results.sqlite")
+    rep.set_defaults(func=_report)
+
+    lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
+    lst.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="data directory whose noises to list")
+    lst.set_defaults(func=_list)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def _run(args) -> int:
+    from benchmarks.runner import run_sweep
+    from benchmarks.sweep import load_sweep
+
+    if args.scheduler and args.executor != "dask":
+        raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
+    sweep = load_sweep(args.sweep)
+    summary = run_sweep(
+        sweep,
+        args.out,
+        executor=args.executor,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        data_dir=args.data_dir,
+        limit=args.limit,
+        seed=args.seed,
+        retry_errors=args.retry_errors,
+        report=not args.no_report,
+    )
+    for note in summary.warnings:
+        print(f"scenesim bench: warning: {note}", file=sys.stderr)
+    print(f"scenesim bench: {sweep.name}: {summary.line()}", file=sys.stderr)
+    print(f"results: {summary.store_path}")
+    if summary.report_files:
+        index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
+        print(f"report:  {index}")
+    return 0
+
+
+def _report(args) -> int:
+    from benchmarks.runner import write_store_report
+
+    files = write_store_report(args.dir)
+    for f in files:
+        print(f)
+    return 0
+
+
+def _list(args) -> int:
+    import os
+
+    from benchmarks.sweep import PRESETS, load_sweep
+    from enhancers.registry import describe
+
+    print("Presets (scenesim bench run NAME):")
+    for name in PRESETS:
+        sweep = load_sweep(name)
+        n = sweep.n_conditions
+        print(f"  {name:<8} {n:4d} conditions x {len(sweep.enhancers)} enhancers = {n * len(sweep.enhancers):4d} rows")
+        print(f"           {sweep.description}")
+
+    print("\nEnhancers (name, version, source package):")
+    for row in describe():
+        print(f"  {row['name']:<14} v{row['version']:<6} {row['source']:<20} {row['summary']}")
+
+    data_dir = args.data_dir or os.environ.get("SCENESIM_DATA") or None
+    print(f"\nNoise types ({data_dir or 'built-in synthesized noises'}):")
+    try:
+        from data_recipes import open_data
+
+        ds = open_data(data_dir)
+        for t in ds.noise_types():
+            print(f"  {t}")
+    except Exception as exc:  # listing must keep working when the data dir is broken
+        print(f"  (cannot list: {exc})")
+    return 0

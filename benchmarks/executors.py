@@ -1,0 +1,177 @@
+"""Where units of work run: in this process, a local process pool, or a Dask cluster.
+
+Every executor has one method, ``run(fn, tasks) -> iterator of (task, outcome)``, that
+yields each task's outcome *as it finishes* (any order) so the driver can store it at
+once.  ``outcome`` is ``fn(task)``'s return value, or the exception that the executor
+got instead (a task the cluster gave up on).  ``fn`` must be a picklable module-level
+function and, for results to be identical whichever executor ran them, a pure function
+of its task.
+
+* :class:`SerialExecutor` -- one worker: no pool, no pickling, easiest to debug.
+* :class:`LocalExecutor` -- ``concurrent.futures.ProcessPoolExecutor`` (workers default
+  to ``os.cpu_count()``); a dead worker process breaks the pool, which raises
+  :class:`ExecutorError` (rerunning resumes).
+* :class:`DaskExecutor` -- ``distributed.Client(scheduler)`` when an address is given,
+  otherwise a ``LocalCluster`` of single-threaded worker processes on 127.0.0.1.  Dask
+  reschedules the tasks of a worker that dies; a task that kills
+  ``distributed.scheduler.allowed-failures`` workers comes back as ``KilledWorker``.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
+
+from scenesim.errors import ParameterError, ScenesimError
+
+EXECUTORS = ("local", "dask")
+
+
+class ExecutorError(ScenesimError):
+    """The execution machinery failed (a pool broke, the cluster is unreachable)."""
+
+
+class SerialExecutor:
+    """Run tasks one after another in this process."""
+
+    name = "local"
+    workers = 1
+
+    def run(self, fn: Callable[[Any], Any], tasks: Sequence[Any]) -> Iterator[tuple[Any, Any]]:
+        for task in tasks:
+            yield task, fn(task)
+
+    def close(self) -> None:
+        pass
+
+
+class LocalExecutor:
+    """A pool of ``workers`` processes on this machine.
+
+    Processes are started with ``forkserver`` (not ``fork``): forking a driver that runs
+    threads (the progress bar's monitor) can deadlock a child on a lock held mid-fork.
+    At most ``2 * workers`` tasks are submitted ahead, so a kill loses little and memory
+    stays flat on large sweeps.
+    """
+
+    name = "local"
+
+    def __init__(self, workers: int | None = None):
+        self.workers = _check_workers(workers)
+
+    def run(self, fn, tasks) -> Iterator[tuple[Any, Any]]:
+        ctx = multiprocessing.get_context("forkserver")
+        pending = list(tasks)[::-1]
+        running: dict[Any, Any] = {}
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        try:
+            while pending or running:
+                while pending and len(running) < 2 * self.workers:
+                    task = pending.pop()
+                    running[pool.submit(fn, task)] = task
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    task = running.pop(fut)
+                    try:
+                        outcome = fut.result()
+                    except BrokenProcessPool as exc:
+                        raise ExecutorError(
+                            "a worker process died (out of memory or killed?); "
+                            "rerun the same command to compute what is missing"
+                        ) from exc
+                    except Exception as exc:  # fn raised: hand it to the driver
+                        outcome = exc
+                    yield task, outcome
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def close(self) -> None:
+        pass
+
+
+class DaskExecutor:
+    """Run tasks on Dask: an existing scheduler (``scheduler="tcp://host:port"``) or a local cluster."""
+
+    name = "dask"
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None):
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError as exc:  # pragma: no cover - dask is an optional extra
+            raise ExecutorError(
+                "the dask executor needs dask[distributed]: pip install 'scenesim[dask]'"
+            ) from exc
+        self.scheduler = scheduler
+        self._cluster = None
+        try:
+            if scheduler:
+                self._client = Client(scheduler, timeout="30s")
+                self.workers = len(self._client.scheduler_info().get("workers", {})) or None
+            else:
+                self.workers = _check_workers(workers)
+                self._cluster = LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address=None,
+                )
+                self._client = Client(self._cluster)
+        except (OSError, TimeoutError) as exc:
+            self.close()
+            raise ExecutorError(f"cannot reach the Dask scheduler {scheduler or '(local)'}: {exc}") from exc
+
+    def run(self, fn, tasks) -> Iterator[tuple[Any, Any]]:
+        from distributed import as_completed
+
+        tag = uuid.uuid4().hex[:8]
+        submitted = []
+        task_of = {}
+        for i, task in enumerate(tasks):
+            # pure=False plus a unique key: a rerun must really run, never reuse a cached result.
+            fut = self._client.submit(fn, task, pure=False, key=f"scenesim-unit-{tag}-{i}")
+            submitted.append(fut)
+            task_of[fut.key] = task
+        for fut in as_completed(submitted):
+            try:
+                outcome = fut.result()
+            except Exception as exc:  # KilledWorker, or fn raised
+                outcome = exc
+            yield task_of[fut.key], outcome
+            fut.release()
+
+    def close(self) -> None:
+        client = getattr(self, "_client", None)
+        if client is not None:
+            client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+def _check_workers(workers: int | None) -> int:
+    if workers is None:
+        return os.cpu_count() or 1
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ParameterError("workers", workers, "an integer >= 1")
+    return workers
+
+
+def make_executor(executor: str = "local", *, workers: int | None = None, scheduler: str | None = None):
+    """The executor called ``executor`` (``"local"`` or ``"dask"``).
+
+    ``local`` with one worker runs in this process (:class:`SerialExecutor`).  ``scheduler``
+    is only meaningful with ``dask``.
+    """
+    if executor not in EXECUTORS:
+        raise ParameterError("executor", executor, "one of " + ", ".join(map(repr, EXECUTORS)))
+    if executor == "local":
+        if scheduler:
+            raise ParameterError("scheduler", scheduler, "no scheduler with the local executor (use --executor dask)")
+        n = _check_workers(workers)
+        return SerialExecutor() if n == 1 else LocalExecutor(n)
+    return DaskExecutor(workers, scheduler)

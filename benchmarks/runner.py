@@ -1,0 +1,501 @@
+"""Running a sweep: split it into units, run them on an executor, store rows as units finish.
+
+Unit of work = one condition (scene x noise x SNR x seed) and the enhancers still missing
+for it.  :func:`run_unit` is a pure function of its :class:`UnitTask` (condition,
+enhancer specs, data directory) -> rows, so any executor gives the same numbers.  Inside
+a worker process, the rendered scene of a geometry group (everything but the SNR) is
+kept in a small cache: the conditions of a group are adjacent in the sweep's order, so a
+worker renders each geometry once and only re-mixes it per SNR; input metrics are
+computed once per mixture, then each enhancer is run and measured.
+
+The driver (:func:`run_sweep`) is the only process that writes the store: one
+transaction per finished unit, so ``kill -9`` loses at most the units in flight and a
+rerun computes only what is missing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sys
+import time
+import traceback
+import warnings
+from collections import OrderedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from benchmarks.executors import EXECUTORS, make_executor
+from benchmarks.store import ResultStore, package_versions
+from benchmarks.sweep import Condition, Sweep, load_sweep
+from scenesim.errors import ParameterError
+from scenesim.geometry import SPEED_OF_SOUND_MPS
+from scenesim.validate import check_choice
+
+# Condition columns every row of a unit carries (the store's names).
+_CONDITION_COLUMNS = (
+    "noise",
+    "rt60_s",
+    "speech_az_deg",
+    "noise_az_deg",
+    "seed",
+    "room",
+    "distance_m",
+    "noise_distance_m",
+    "noise_field",
+    "fs",
+    "duration_s",
+)
+
+
+@dataclass(frozen=True)
+class EnhancerSpec:
+    """What a worker needs to build one enhancer: the sweep's name for it and its params."""
+
+    name: str
+    params_json: str = "{}"
+
+    @property
+    def params(self) -> dict[str, Any]:
+        return json.loads(self.params_json)
+
+
+@dataclass(frozen=True)
+class UnitTask:
+    """One unit of work: a condition and the enhancers to run on it (picklable, small)."""
+
+    condition_json: str
+    enhancers: tuple[EnhancerSpec, ...]
+    data_dir: str | None = None
+
+    @property
+    def condition(self) -> Condition:
+        return Condition.from_json(self.condition_json)
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What :func:`run_sweep` did."""
+
+    out_dir: Path
+    store_path: Path
+    run_id: str
+    n_conditions: int
+    n_units: int
+    n_skipped: int
+    n_rows: int
+    n_errors: int
+    wall_s: float
+    report_files: tuple[Path, ...] = ()
+    warnings: tuple[str, ...] = field(default=())
+
+    def line(self) -> str:
+        return (
+            f"{self.n_conditions} conditions: {self.n_units} computed, {self.n_skipped} already "
+            f"stored; {self.n_rows} rows written ({self.n_errors} with status 'error') "
+            f"in {self.wall_s:.1f} s"
+        )
+
+
+# -- the worker side ---------------------------------------------------------------------
+
+_DATASETS: dict[tuple[str | None, int], Any] = {}
+_IMAGES: OrderedDict[tuple, Any] = OrderedDict()
+_IMAGES_MAX = 2  # a worker interleaves at most a couple of geometry groups
+
+
+def _dataset(data_dir: str | None, fs: int):
+    key = (data_dir, fs)
+    if key not in _DATASETS:
+        from data_recipes import open_data
+
+        _DATASETS[key] = open_data(data_dir, fs=fs)
+    return _DATASETS[key]
+
+
+def build_scene(cond: Condition):
+    """The :class:`scenesim.scene.Scene` of a condition (same for every SNR of its group)."""
+    from scenesim.geometry import MicPair
+    from scenesim.room import ShoeBox
+    from scenesim.scene import NoiseSource, Scene, SourcePlacement
+
+    room = None
+    if cond.room_dims_m is not None:
+        room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
+    return Scene(
+        fs=cond.fs,
+        pair=MicPair(cond.pair_center_m, spacing_m=cond.spacing_m, axis_azimuth_deg=cond.axis_azimuth_deg),
+        room=room,
+        speech=SourcePlacement(azimuth_deg=cond.speech_az_deg, distance_m=cond.distance_m),
+        noises=(
+            NoiseSource(
+                field=cond.noise_field, azimuth_deg=cond.noise_az_deg, distance_m=cond.noise_distance_m
+            ),
+        ),
+        snr_db=cond.snr_db,
+        far_field=cond.far_field,
+        snr_mode=cond.snr_mode,
+        reference=cond.reference,
+        seed=cond.seed,
+    )
+
+
+def _noise_channels(field_type: str) -> int:
+    # Diffuse and incoherent fields are built from two independent noise channels.
+    return 1 if field_type == "point" else 2
+
+
+def render_group(cond: Condition, data_dir: str | None):
+    """``(SceneImages, speech_source, noise_source)`` of a condition's geometry group (cached)."""
+    key = (data_dir, cond.group_id)
+    if key in _IMAGES:
+        _IMAGES.move_to_end(key)
+        return _IMAGES[key]
+    from scenesim.scene import render_images
+
+    ds = _dataset(data_dir, cond.fs)
+    speech = ds.speech(cond.duration_s, seed=cond.seed)
+    noise = ds.noise(cond.noise, cond.duration_s, seed=cond.seed, n_channels=_noise_channels(cond.noise_field))
+    images = render_images(build_scene(cond), _mono(speech.signal), [_squeeze(noise.signal)])
+    value = (images, str(speech.source), str(noise.source))
+    _IMAGES[key] = value
+    while len(_IMAGES) > _IMAGES_MAX:
+        _IMAGES.popitem(last=False)
+    return value
+
+
+def _mono(x):
+    import numpy as np
+
+    x = np.asarray(x, dtype=np.float64)
+    return x[0] if x.ndim == 2 else x
+
+
+def _squeeze(x):
+    import numpy as np
+
+    x = np.asarray(x, dtype=np.float64)
+    return x[0] if x.ndim == 2 and x.shape[0] == 1 else x
+
+
+def build_enhancer(spec: EnhancerSpec, cond: Condition):
+    """The enhancer of a spec, with the condition's array geometry when it needs one."""
+    from enhancers.registry import make, with_geometry
+
+    return with_geometry(make(spec.name, **spec.params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+
+
+def run_unit(task: UnitTask) -> list[dict[str, Any]]:
+    """Compute the rows of one unit: render (or reuse) the scene, mix, measure every enhancer.
+
+    Never raises for a problem with the condition: a failure to render or to build an
+    enhancer gives rows with ``status='error'`` and the reason in ``error``.
+    """
+    from benchmarks.evaluate import evaluate_enhancer, input_metrics
+
+    cond = task.condition
+    worker = f"{socket.gethostname()}:{os.getpid()}"
+    base = {
+        "condition_id": cond.id,
+        "snr_in_db": cond.snr_db,
+        **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
+        "group_id": cond.group_id,
+        "condition_json": cond.to_json(),
+        "scenesim_version": package_versions(("scenesim",))["scenesim"],
+        "worker": worker,
+    }
+    rows: list[dict[str, Any]] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            t0 = time.perf_counter()
+            images, speech_source, noise_source = render_group(cond, task.data_dir)
+            rendered = images.mix(cond.snr_db)
+            base.update(speech_source=speech_source, noise_source=noise_source)
+            base["render_s"] = time.perf_counter() - t0
+            inputs = input_metrics(rendered)
+        except Exception as exc:
+            text = _exc_text(exc)
+            return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
+        for spec in task.enhancers:
+            row = dict(base)
+            try:
+                enhancer = build_enhancer(spec, cond)
+                row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
+                row["enhancer_version"] = str(enhancer.version)
+                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs))
+            except Exception as exc:
+                row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
+            row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
+            rows.append(row)
+    notes = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    if notes:
+        for row in rows:
+            row["warnings"] = "; ".join(notes)
+    return rows
+
+
+def _exc_text(exc: BaseException) -> str:
+    tb = traceback.extract_tb(exc.__traceback__)
+    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name})" if tb else ""
+    return f"{type(exc).__name__}: {exc}{where}"
+
+
+# -- the driver side ---------------------------------------------------------------------
+
+
+def plan_units(
+    sweep: Sweep,
+    conditions: Sequence[Condition],
+    done: set[tuple[str, str]],
+    data_dir: str | None,
+) -> list[UnitTask]:
+    """One task per condition that misses at least one enhancer's row, in sweep order."""
+    specs = [
+        EnhancerSpec(name, json.dumps(dict(sweep.enhancer_params.get(name, {})), sort_keys=True))
+        for name in sweep.enhancers
+    ]
+    tasks = []
+    for cond in conditions:
+        missing = tuple(s for s in specs if (cond.id, s.name) not in done)
+        if missing:
+            tasks.append(UnitTask(cond.to_json(), missing, data_dir))
+    return tasks
+
+
+def run_sweep(
+    sweep: Sweep | str | Path,
+    out_dir: str | Path,
+    *,
+    executor: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    data_dir: str | Path | None = None,
+    limit: int | None = None,
+    seed: int | None = None,
+    retry_errors: bool = False,
+    report: bool = True,
+    progress: bool = True,
+) -> RunSummary:
+    """Run ``sweep`` (a :class:`Sweep`, preset name or TOML path) into ``out_dir/results.sqlite``.
+
+    Parameters
+    ----------
+    executor : {"local", "dask"}
+        Local process pool (``workers`` default: CPU count; 1 runs in this process), or
+        Dask (``scheduler`` address, else a local cluster of ``workers`` processes).
+    data_dir : path, optional
+        Speech/noise directory; default ``$SCENESIM_DATA``, else the built-in recipes.
+    limit : int, optional
+        Run only the first ``limit`` conditions of the sweep's order.
+    seed : int, optional
+        Offset the seeds axis (``seeds = [0]`` becomes ``[seed]``).
+    retry_errors : bool
+        Recompute rows stored with ``status='error'`` (by default they count as done).
+    report : bool
+        Write ``out_dir/report`` from every row in the store at the end.
+    progress : bool
+        Show a progress bar (only when stderr is a terminal).
+
+    Returns
+    -------
+    RunSummary
+        Counts, wall time and the report files.  Rows already in the store are not
+        recomputed; rerunning after an interruption computes only what is missing.
+    """
+    check_choice("executor", executor, EXECUTORS)
+    if not isinstance(sweep, Sweep):
+        sweep = load_sweep(sweep)
+    if seed is not None:
+        sweep = sweep.with_seed(seed)
+    conditions = sweep.conditions()
+    if limit is not None:
+        if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+            raise ParameterError("limit", limit, "an integer >= 1")
+        conditions = conditions[:limit]
+    if data_dir is None:
+        data_dir = os.environ.get("SCENESIM_DATA") or None
+    data_dir = str(Path(data_dir).resolve()) if data_dir else None
+
+    out_dir = Path(out_dir)
+    t_start = time.perf_counter()
+    with ResultStore.open(out_dir) as store:
+        done = store.done_keys(include_errors=not retry_errors)
+        tasks = plan_units(sweep, conditions, done, data_dir)
+        _warn_changed_params(store, sweep, conditions, done)
+        run_id = store.start_run(
+            sweep=sweep.name,
+            source=sweep.source,
+            config_toml=sweep.text,
+            options={"limit": limit, "seed": seed, "retry_errors": retry_errors, "enhancers": sweep.enhancers},
+            executor=executor,
+            workers=workers or (None if scheduler else os.cpu_count()),
+            scheduler=scheduler,
+            data_dir=data_dir,
+        )
+        n_rows = n_errors = 0
+        notes: dict[str, None] = {}
+        status = "failed"
+        try:
+            if tasks:
+                ex = make_executor(executor, workers=workers, scheduler=scheduler)
+                try:
+                    with _progress(len(tasks), sweep.name, enabled=progress) as bar:
+                        for task, outcome in ex.run(run_unit, tasks):
+                            rows = _rows_of(task, outcome, run_id)
+                            n_rows += store.write_rows(rows)
+                            n_errors += sum(r.get("status") != "ok" for r in rows)
+                            for r in rows:
+                                for note in (r.get("warnings") or "").split("; "):
+                                    if note:
+                                        notes[note] = None
+                            bar.update(1)
+                            if n_errors:
+                                bar.set_postfix(errors=n_errors, refresh=False)
+                finally:
+                    ex.close()
+            status = "finished"
+        except KeyboardInterrupt:
+            status = "interrupted"
+            raise
+        finally:
+            store.finish_run(run_id, status=status, n_rows_written=n_rows, n_errors=n_errors)
+
+        report_files: tuple[Path, ...] = ()
+        if report:
+            report_files = tuple(write_store_report(out_dir, store=store))
+    return RunSummary(
+        out_dir=out_dir,
+        store_path=store.path,
+        run_id=run_id,
+        n_conditions=len(conditions),
+        n_units=len(tasks),
+        n_skipped=len(conditions) - len(tasks),
+        n_rows=n_rows,
+        n_errors=n_errors,
+        wall_s=time.perf_counter() - t_start,
+        report_files=report_files,
+        warnings=tuple(notes),
+    )
+
+
+def _rows_of(task: UnitTask, outcome: Any, run_id: str) -> list[dict[str, Any]]:
+    """Rows from a unit's outcome; an exception (e.g. Dask's KilledWorker) becomes error rows."""
+    if isinstance(outcome, BaseException):
+        cond = task.condition
+        rows = [
+            {
+                "condition_id": cond.id,
+                "enhancer": s.name,
+                "snr_in_db": cond.snr_db,
+                **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
+                "group_id": cond.group_id,
+                "condition_json": cond.to_json(),
+                "status": "error",
+                "error": f"unit failed: {_exc_text(outcome)}",
+            }
+            for s in task.enhancers
+        ]
+    else:
+        rows = list(outcome)
+    for row in rows:
+        row["run_id"] = run_id
+    return rows
+
+
+def _warn_changed_params(store: ResultStore, sweep: Sweep, conditions, done) -> None:
+    """Stored rows made with other enhancer params are kept (same key): say so."""
+    specs = store.stored_specs()
+    ids = {c.id for c in conditions}
+    changed = set()
+    for (cid, name), text in specs.items():
+        if cid not in ids or (cid, name) not in done or not text or name not in sweep.enhancer_params:
+            continue
+        stored = json.loads(text).get("params", {})
+        for key, value in sweep.enhancer_params[name].items():
+            if key in stored and stored[key] != value:
+                changed.add(name)
+    for name in sorted(changed):
+        warnings.warn(
+            f"rows for {name!r} already in the store were computed with other parameters and are "
+            "kept; use a new --out directory to recompute them",
+            stacklevel=3,
+        )
+
+
+class _NullBar:
+    def update(self, n=1):
+        pass
+
+    def set_postfix(self, **kwargs):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def _progress(total: int, name: str, *, enabled: bool):
+    if not enabled:
+        return _NullBar()
+    from tqdm.auto import tqdm
+
+    # disable=None: tqdm switches itself off when stderr is not a terminal.
+    return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
+
+
+def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None) -> list[Path]:
+    """Write ``out_dir/report`` (Markdown, CSV, PNG) from every row of ``out_dir/results.sqlite``."""
+    from benchmarks.report import write_report
+
+    own = store is None
+    if own:
+        store = ResultStore.open(out_dir, readonly=True)
+    try:
+        rows = store.rows()
+        runs = store.runs()
+    finally:
+        if own:
+            store.close()
+    return list(write_report(rows, Path(out_dir), meta=report_meta(runs, Path(out_dir) / "results.sqlite")))
+
+
+def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:
+    """One-line facts for the report's header: store, sweeps, runs, data, versions."""
+    meta = {"store": str(store_path)}
+    if not runs:
+        return meta
+    last = runs[-1]
+    meta["sweep"] = ", ".join(dict.fromkeys(str(r["sweep"]) for r in runs))
+    workers = f", {last['workers']} workers" if last.get("workers") else ""
+    where = f" at {last['scheduler']}" if last.get("scheduler") else ""
+    meta["runs"] = (
+        f"{len(runs)}; last: {last['executor']}{where}{workers}, on {last['hostname']}, "
+        f"{last['started_at']} -> {last['finished_at'] or '(unfinished)'}, {last['status']}"
+    )
+    meta["data"] = str(last.get("data_dir") or "built-in (artificial voice + synthesized noise)")
+    try:
+        versions = json.loads(last.get("versions_json") or "{}")
+    except ValueError:
+        versions = {}
+    meta["versions"] = ", ".join(f"{k} {v}" for k, v in versions.items() if v)
+    return meta
+
+
+__all__ = [
+    "EnhancerSpec",
+    "RunSummary",
+    "UnitTask",
+    "build_enhancer",
+    "build_scene",
+    "plan_units",
+    "render_group",
+    "run_sweep",
+    "run_unit",
+    "write_store_report",
+]

@@ -1,0 +1,140 @@
+"""The runner: pure units, rendering reuse, resume, retry of errors, executors agreeing."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks import runner
+from benchmarks.runner import EnhancerSpec, UnitTask, plan_units, run_sweep, run_unit
+from benchmarks.store import ResultStore
+from benchmarks.sweep import parse_sweep
+from scenesim.errors import ParameterError
+
+# 1 s of speech keeps each unit well under a second (PESQ/STOI scale with length).
+TINY = """\
+[sweep]
+name = "tiny"
+
+[axes]
+enhancers = ["passthrough", "ss"]
+noise = ["babble"]
+snr_db = [0, 10]
+
+[fixed]
+duration_s = 1.5
+"""
+
+METRICS = ("snr_out_db", "snr_i_db", "pesq_nb_in", "pesq_nb_out", "pesq_wb_in", "pesq_wb_out", "stoi_in", "stoi_out")
+
+
+def _metrics(rows):
+    return {(r["condition_id"], r["enhancer"]): tuple(r[m] for m in METRICS) for r in rows}
+
+
+def test_plan_units_skips_done_and_keeps_only_missing_enhancers():
+    sweep = parse_sweep(TINY)
+    conds = sweep.conditions()
+    done = {(conds[0].id, "passthrough"), (conds[0].id, "ss"), (conds[1].id, "ss")}
+    tasks = plan_units(sweep, conds, done, None)
+    assert len(tasks) == 1
+    assert tasks[0].condition == conds[1]
+    assert [s.name for s in tasks[0].enhancers] == ["passthrough"]
+
+
+def test_run_unit_is_pure_and_the_render_cache_changes_nothing():
+    """Same task -> same numbers, whether the geometry was rendered now or taken from the cache.
+
+    Oracle: the function's own first result (determinism, to 1e-12 relative)."""
+    sweep = parse_sweep(TINY)
+    cond = sweep.conditions()[0]
+    task = UnitTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss")))
+    runner._IMAGES.clear()
+    first = run_unit(task)
+    assert len(runner._IMAGES) == 1  # the geometry group stays cached for the next SNR
+    again = run_unit(task)  # from the cache
+    runner._IMAGES.clear()
+    fresh = run_unit(task)  # rendered anew
+    assert [r["status"] for r in first] == ["ok", "ok"], [r["error"] for r in first]
+    for a, b, c in zip(first, again, fresh):
+        for m in METRICS:
+            np.testing.assert_allclose([b[m], c[m]], [a[m], a[m]], rtol=1e-12, err_msg=m)
+    row = first[0]
+    assert row["condition_id"] == cond.id and row["snr_in_db"] == 0.0 and row["noise"] == "babble"
+    assert row["speech_source"] == "artificial-voice" and row["noise_source"] == "synthetic:babble"
+    assert json.loads(row["condition_json"])["snr_db"] == 0.0
+    assert json.loads(first[1]["enhancer_spec"])["name"] == "ss"
+
+
+def test_a_condition_that_cannot_be_rendered_gives_error_rows_not_a_crash():
+    sweep = parse_sweep(TINY.replace('noise = ["babble"]', 'noise = ["no-such-noise"]'))
+    task = UnitTask(sweep.conditions()[0].to_json(), (EnhancerSpec("passthrough"),))
+    (row,) = run_unit(task)
+    assert row["status"] == "error" and "no-such-noise" in row["error"]
+
+
+def test_an_enhancer_that_cannot_be_built_gives_an_error_row():
+    cond = parse_sweep(TINY).conditions()[0]
+    task = UnitTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss", json.dumps({"nonsense": 1}))))
+    ok, bad = run_unit(task)
+    assert ok["status"] == "ok" and bad["status"] == "error" and "nonsense" in bad["error"]
+
+
+def test_resume_computes_only_what_is_missing(tmp_path):
+    sweep = parse_sweep(TINY)
+    first = run_sweep(sweep, tmp_path, workers=1, limit=1, report=False, progress=False)
+    assert (first.n_conditions, first.n_units, first.n_rows) == (1, 1, 2)
+    with ResultStore.open(tmp_path) as store:
+        before = {(r["condition_id"], r["enhancer"]): r["created_at"] for r in store.rows()}
+    second = run_sweep(sweep, tmp_path, workers=1, report=False, progress=False)
+    assert (second.n_conditions, second.n_units, second.n_skipped, second.n_rows) == (2, 1, 1, 2)
+    third = run_sweep(sweep, tmp_path, workers=1, report=False, progress=False)
+    assert (third.n_units, third.n_rows) == (0, 0)
+    with ResultStore.open(tmp_path) as store:
+        rows = store.rows()
+        runs = store.runs()
+    assert len(rows) == 4 and all(r["status"] == "ok" for r in rows)
+    for r in rows:  # rows of the first run untouched
+        key = (r["condition_id"], r["enhancer"])
+        if key in before:
+            assert r["created_at"] == before[key] and r["run_id"] == first.run_id
+    assert [r["status"] for r in runs] == ["finished"] * 3
+
+
+def test_error_rows_are_kept_unless_retry_errors(tmp_path):
+    sweep = parse_sweep(TINY)
+    cond = sweep.conditions()[0]
+    with ResultStore.open(tmp_path) as store:
+        store.write_rows([{"condition_id": cond.id, "enhancer": "ss", "status": "error", "error": "earlier crash"}])
+    s1 = run_sweep(sweep, tmp_path, workers=1, limit=1, report=False, progress=False)
+    assert s1.n_rows == 1  # passthrough only; the error row counts as done
+    s2 = run_sweep(sweep, tmp_path, workers=1, limit=1, retry_errors=True, report=False, progress=False)
+    assert s2.n_rows == 1
+    with ResultStore.open(tmp_path) as store:
+        assert {r["enhancer"]: r["status"] for r in store.rows()} == {"ss": "ok", "passthrough": "ok"}
+
+
+def test_process_pool_gives_the_same_numbers_as_serial(tmp_path):
+    """Oracle: the serial run; a pure unit function must give identical metrics (1e-9)."""
+    sweep = parse_sweep(TINY)
+    run_sweep(sweep, tmp_path / "serial", workers=1, report=False, progress=False)
+    summary = run_sweep(sweep, tmp_path / "pool", workers=2, report=False, progress=False)
+    assert summary.n_rows == 4
+    with ResultStore.open(tmp_path / "serial") as a, ResultStore.open(tmp_path / "pool") as b:
+        ma, mb = _metrics(a.rows()), _metrics(b.rows())
+    assert ma.keys() == mb.keys()
+    for key in ma:
+        np.testing.assert_allclose(np.array(mb[key], float), np.array(ma[key], float), rtol=0, atol=1e-9)
+
+
+def test_seed_offsets_the_seeds_and_limit_is_checked(tmp_path):
+    summary = run_sweep(parse_sweep(TINY), tmp_path, workers=1, limit=1, seed=3, report=False, progress=False)
+    with ResultStore.open(tmp_path) as store:
+        assert {r["seed"] for r in store.rows()} == {3}
+    assert summary.n_rows == 2
+    with pytest.raises(ParameterError, match="limit"):
+        run_sweep(parse_sweep(TINY), tmp_path, limit=0, report=False)
+    with pytest.raises(ParameterError, match="executor"):
+        run_sweep(parse_sweep(TINY), tmp_path, executor="mpi", report=False)
