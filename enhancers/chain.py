@@ -199,12 +199,14 @@ class _LazyParams:
 
 
 def hop_of(enhancer, fs: int | None = None) -> int | None:
-    """Block hop (samples) an enhancer declares, or None: ``hop``/``hop_samples`` on it or its params.
+    """Block hop (samples) an enhancer declares, or None.
+
+    Looks for ``hop``, ``hop_samples`` or ``block_len`` on the enhancer, then on its params.
 
     A callable ``hop(fs)`` is called with ``fs`` when given.
     """
     for holder in (enhancer, getattr(enhancer, "params", None)):
-        for attr in ("hop", "hop_samples"):
+        for attr in ("hop", "hop_samples", "block_len"):
             value = getattr(holder, attr, None) if holder is not None else None
             if callable(value):
                 if fs is None:

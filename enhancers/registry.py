@@ -320,7 +320,7 @@ def make(name: str, **params: Any):
     cls = spec.load()
     merged = {**spec.default_params, **params}
     param_cls = getattr(cls, "Params", None)
-    if dataclasses.is_dataclass(param_cls) and not getattr(cls, "accepts_any_params", False):
+    if dataclasses.is_dataclass(param_cls):
         known = {f.name for f in dataclasses.fields(param_cls)}
         for key in sorted(merged):
             if key not in known and key != "params":

@@ -151,3 +151,15 @@ def test_eb_ss_overrides_and_geometry():
     assert e.params.ss.alpha == 0.9
     assert e.params.eb.spacing_m == 0.03
     assert type(e.params).from_json(e.params.to_json()) == e.params
+
+
+def test_hop_is_lcm_of_stage_hops():
+    """The streaming check uses the chain's hop: lcm of the stages' declared hops."""
+    import math
+
+    from enhancers.chain import hop_of
+
+    e = make("eb-ss")
+    hops = [hop_of(s, FS) for s in e.stage_enhancers]
+    assert e.hop == math.lcm(*[h for h in hops if h]) and hop_of(e, FS) == e.hop
+    assert chain_class("toy-nohop", ["toy-gain", "toy-delay"])().hop is None

@@ -71,11 +71,17 @@ def plugin_path(tmp_path, monkeypatch):
         {"brokenplug": "brokenplug:Thing"},
     )
     _write_distribution(tmp_path, "clashplug", "clashplug", "", {"das": "clashplug:Das"})
+    _write_distribution(
+        tmp_path, "passplug", "passplug",
+        "from enhancers.baselines import Passthrough\n"
+        "class Passthrough2(Passthrough):\n    version = '2'\n",
+        {"passthrough@2": "passplug:Passthrough2"},
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     registry.reload_plugins()
     yield tmp_path
     monkeypatch.undo()
-    for mod in ("myplug", "brokenplug", "clashplug"):
+    for mod in ("myplug", "brokenplug", "clashplug", "passplug"):
         sys.modules.pop(mod, None)
     registry.reload_plugins()
 
@@ -118,3 +124,12 @@ def test_plugins_gone_after_uninstall(plugin_path, monkeypatch):
     monkeypatch.undo()
     registry.reload_plugins()
     assert "myplug" not in available()
+
+
+def test_plugin_adds_a_version_of_a_builtin_name(plugin_path):
+    # Entry point "passthrough@2": the bare name now gives the latest version.
+    assert make("passthrough").version == "2"
+    assert type(make("passthrough")).__module__ == "passplug"
+    assert make("passthrough@1").__module__ == "enhancers.baselines"
+    rows = [r for r in describe() if r["name"] == "passthrough"]
+    assert sorted((r["version"], r["source"]) for r in rows) == [("1", "scenesim"), ("2", "passplug")]
