@@ -129,6 +129,19 @@ def test_near_field_free_field_uses_point_sources(speech, noise):
     np.testing.assert_array_equal(r.reference[0], r.speech_image[0])
 
 
+def test_absolute_position_gives_the_same_far_field_image_as_its_angles(speech, noise):
+    # Oracle: geometry; a position at azimuth 45 deg, elevation 30 deg renders like the angles (1e-12).
+    pair = MicPair(center_m=(1.0, -2.0, 0.5), axis_azimuth_deg=20.0)
+    pos = np.asarray(pair.center_m) + 3.0 * pair.direction(45.0, 30.0)
+    by_pos = render_images(
+        Scene(pair=pair, speech=SourcePlacement(position_m=tuple(pos))), speech, [noise]
+    )
+    by_angle = render_images(
+        Scene(pair=pair, speech=SourcePlacement(45.0, 3.0, 30.0)), speech, [noise]
+    )
+    np.testing.assert_allclose(by_pos.speech_image, by_angle.speech_image, atol=1e-12)
+
+
 @pytest.mark.parametrize("mode", ["total", "active"])
 @pytest.mark.parametrize("snr_db", [-5.0, 0.0, 20.0])
 def test_rendered_snr_equals_target(speech, noise, mode, snr_db):
