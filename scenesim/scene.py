@@ -34,6 +34,7 @@ for the sensor noise), so a scene renders to the same numbers every time.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -44,7 +45,7 @@ from scenesim.cache import cached_rir, canonical, stable_hash
 from scenesim.errors import ParameterError
 from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import SPEED_OF_SOUND_MPS, MicPair
-from scenesim.mixing import active_speech_power, noise_gain_for_snr, signal_power
+from scenesim.mixing import active_speech_power, signal_power
 from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
 from scenesim.room import ShoeBox
 from scenesim.validate import (
@@ -340,6 +341,18 @@ class SceneImages:
     rirs: Mapping[str, np.ndarray]
     scene: Scene
 
+    @functools.cached_property
+    def speech_power(self) -> float:
+        """Speech power at channel 0 by ``scene.snr_mode`` (computed once, reused by every mix)."""
+        if self.scene.snr_mode == "active":
+            return active_speech_power(self.speech_image[0], self.fs)
+        return signal_power(self.speech_image[0])
+
+    @functools.cached_property
+    def noise_power(self) -> float:
+        """Mean square of the unit-gain noise image at channel 0."""
+        return signal_power(self.noise_image[0])
+
     def mix(self, snr_db: float | None = None) -> RenderedScene:
         """Scale the noise to ``snr_db`` (default ``scene.snr_db``) at channel 0 and add it.
 
@@ -350,20 +363,16 @@ class SceneImages:
         """
         scene = self.scene
         snr = scene.snr_db if snr_db is None else check_finite_number("snr_db", snr_db)
-        ref_speech = self.speech_image[0]
         if scene.noises:
-            gain = noise_gain_for_snr(
-                ref_speech, self.noise_image[0], snr, mode=scene.snr_mode, fs=self.fs
-            )
+            if self.noise_power <= 0.0:
+                raise ParameterError("noise_signals", "silent noise", "noise with non-zero power")
+            # Thesis eq. 7.1, as in noise_gain_for_snr, with the powers computed once.
+            gain = float(np.sqrt(self.speech_power / (self.noise_power * 10.0 ** (snr / 10.0))))
         else:
             gain = 0.0
         noise = gain * self.noise_image
         if scene.sensor_noise_db is not None:
-            if scene.snr_mode == "active":
-                p_s = active_speech_power(ref_speech, self.fs)
-            else:
-                p_s = signal_power(ref_speech)
-            level = 10.0 * np.log10(p_s) + scene.sensor_noise_db
+            level = 10.0 * np.log10(self.speech_power) + scene.sensor_noise_db
             rng = np.random.default_rng([scene.seed, _SENSOR_STREAM])
             noise = noise + sensor_noise(
                 noise.shape[1], n_channels=noise.shape[0], level_db=level, rng=rng

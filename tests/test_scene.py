@@ -320,6 +320,8 @@ def test_bad_signals_raise_naming_the_parameter(speech, noise):
         render_images(Scene(), np.ones((2, N)), [noise])
     with pytest.raises(ParameterError, match="snr_db"):
         render_images(Scene(), speech, [noise]).mix(float("inf"))
+    with pytest.raises(ParameterError, match="noise_signals"):
+        render_images(Scene(), speech, [np.zeros(N)]).mix(0.0)
 
 
 # ------------------------------------------------------------------ RIR cache
