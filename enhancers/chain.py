@@ -255,6 +255,19 @@ class Chain(Enhancer):
         return tuple(i.prefix for i in self._params._stages)
 
     @property
+    def spec(self) -> dict[str, Any]:
+        """Base spec plus ``"stages"``: prefix -> ``"name@version"`` of each resolved stage.
+
+        Stages named without a version resolve to the latest one; recording the versions
+        keeps a results row reproducible when a stage gets a new version.
+        """
+        spec = super().spec
+        spec["stages"] = {
+            prefix: f"{stage.name}@{stage.version}" for prefix, stage in zip(self.prefixes, self._stages)
+        }
+        return spec
+
+    @property
     def hop(self) -> int | None:
         """Least common multiple of the stages' declared hops (None if none declares one)."""
         hops = [h for h in (hop_of(s) for s in self._stages) if h]

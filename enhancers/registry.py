@@ -47,6 +47,8 @@ ENTRY_POINT_GROUP = "scenesim.enhancers"
 BUILTIN_SOURCE = "scenesim"
 """``source`` recorded for the enhancers that ship with this distribution."""
 
+_OWN_PACKAGES = frozenset({"scenesim", "enhancers", "benchmarks", "data_recipes"})
+
 
 class EnhancerNotFound(PluginError, KeyError):
     """No enhancer is registered under the requested name (or version)."""
@@ -70,7 +72,10 @@ class EnhancerSpec:
     default_params : dict
         Keyword arguments ``make`` passes before the caller's own.
     source : str
-        Distribution that provides the entry (``"scenesim"`` for built-ins).
+        Package that provides the entry: the distribution name for an entry-point plugin,
+        ``"scenesim"`` for this distribution's packages, else the entry's top-level module.
+    from_entry_point : bool
+        True for entries found through the ``scenesim.enhancers`` entry points.
     """
 
     name: str
@@ -78,6 +83,7 @@ class EnhancerSpec:
     version: str | None = None
     default_params: dict[str, Any] = field(default_factory=dict)
     source: str = BUILTIN_SOURCE
+    from_entry_point: bool = False
     error: str | None = None  # set for a plugin that could not even be registered
     _cls: type | None = field(default=None, repr=False)
 
@@ -144,7 +150,8 @@ def register(
     entry_point: str | type,
     *,
     version: str | None = None,
-    _source: str = BUILTIN_SOURCE,
+    _source: str | None = None,
+    _from_entry_point: bool = False,
     **default_params: Any,
 ) -> EnhancerSpec:
     """Register an enhancer under ``name``.
@@ -175,13 +182,17 @@ def register(
         raise ParameterError("entry_point", entry_point, "a 'module:Class' string or a class")
     if version is None and isinstance(entry_point, type):
         version = str(getattr(entry_point, "version", "1"))
+    if _source is None:
+        module = entry_point.partition(":")[0] if isinstance(entry_point, str) else entry_point.__module__
+        top = module.split(".")[0]
+        _source = BUILTIN_SOURCE if top in _OWN_PACKAGES else top
     spec = EnhancerSpec(
         base,
         entry_point,
         None if version is None else str(version),
         dict(default_params),
         _source,
-        _cls=None,
+        from_entry_point=_from_entry_point,
     )
     with _LOCK:
         existing = _REGISTRY.setdefault(base, [])
@@ -230,7 +241,7 @@ def _load_plugins() -> None:
             source = getattr(dist, "name", None) or ep.value.partition(":")[0].split(".")[0]
             base, _, version = ep.name.partition("@")
             try:
-                register(base, ep.value, version=version or None, _source=source)
+                register(base, ep.value, version=version or None, _source=source, _from_entry_point=True)
             except (PluginError, ParameterError) as exc:
                 # Keep it listed but broken, so asking for it explains what went wrong.
                 name = ep.name.partition("@")[0] or ep.value
@@ -239,6 +250,7 @@ def _load_plugins() -> None:
                         f"{name}[{source}]",
                         ep.value,
                         source=source,
+                        from_entry_point=True,
                         error=f"plugin {ep.name!r} from package {source!r} was not registered: {exc}",
                     )
                 )
@@ -249,7 +261,7 @@ def reload_plugins() -> None:
     global _PLUGINS_LOADED
     with _LOCK:
         for base in list(_REGISTRY):
-            kept = [s for s in _REGISTRY[base] if s.source == BUILTIN_SOURCE]
+            kept = [s for s in _REGISTRY[base] if not s.from_entry_point]
             if kept:
                 _REGISTRY[base] = kept
             else:
@@ -351,7 +363,8 @@ def describe() -> list[dict[str, Any]]:
     """One row per registered version: name, version, source package, summary, tags.
 
     Loads every entry (imports its module); an entry that fails to load is reported with
-    ``summary`` starting ``"ERROR: "`` and ``tags`` None rather than raising.
+    ``summary`` starting ``"ERROR: "``, ``tags`` None and (if its class never loaded)
+    version ``"?"`` rather than raising.  Every value but ``tags`` is a string.
     """
     rows = []
     for base in available():
@@ -369,7 +382,7 @@ def describe() -> list[dict[str, Any]]:
             rows.append(
                 {
                     "name": base,
-                    "version": spec.version,
+                    "version": spec.version or "?",
                     "source": spec.source,
                     "summary": summary,
                     "tags": tags,

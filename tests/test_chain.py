@@ -143,6 +143,7 @@ def test_eb_ss_is_registered_chain_of_eb_then_ss(rng):
     y = make("ss").process(y_eb, FS).output
     np.testing.assert_allclose(e.process(x, FS).output, y, rtol=0, atol=1e-12)
     assert e.tags.needs_geometry
+    assert e.spec["stages"] == {"eb": f"eb@{make('eb').version}", "ss": f"ss@{make('ss').version}"}
     assert e.tags.latency_samples == make("eb").tags.latency_samples + make("ss").tags.latency_samples
 
 

@@ -26,7 +26,12 @@ def add_parser(subparsers):
     p = subparsers.add_parser(
         "enhance",
         help="run an enhancer on your own recording",
-        description=__doc__.split("\n\n", 1)[1],
+        description=(
+            "Run one registered enhancer on your own recording (channel 0 = front/reference "
+            "mic). A 1-channel enhancer given a multichannel file gets channel 0. The output "
+            "is a float WAV at the input's rate and length, delayed by the enhancer's declared "
+            "latency (printed). Chain stages take dotted parameters: --param ss.alpha=0.9."
+        ),
     )
     p.add_argument("input", type=Path, metavar="IN", help="input audio (channel 0 = front/reference mic)")
     p.add_argument("output", type=Path, metavar="OUT", help="output WAV (float samples)")
