@@ -25,11 +25,13 @@ Expected failures are declared, with a reason, either on the class::
 or per call (``expected_failures={...}``).  An expected failure that fails is reported
 as ``"xfail: <reason>"``; one that passes as ``"xpass"`` (not an error).
 
-Heuristic for bad parameters (``bad_params``): from each ``Params`` field's type, every
-``float``/``int`` field (optional or not) must reject NaN and a string; a field whose
-type is another ``Params`` (a chain stage) must reject a number and a mapping with an
-unknown key; every enhancer must reject an unknown keyword through ``make``.  Negative
-values are not required to fail (many parameters, e.g. dB floors, may be negative).
+Heuristic for bad parameters (``bad_params``): from each ``Params`` field's type
+annotation (``X | None`` counts as ``X``), every ``float``/``int`` field must reject NaN
+and a string, a ``bool`` field the string ``"yes"``, a ``str`` field the number 3.0 (a
+field that takes more than strings must say so in its annotation), and a field whose
+type is another ``Params`` (a chain stage) a number and a mapping with an unknown key;
+a registered enhancer must reject an unknown keyword through ``make``.  Negative values
+are not required to fail (many parameters, e.g. dB floors, may be negative).
 
 Test signal (``test_signal``): 1.5 s at 16 kHz (or the first supported rate) of seeded
 white noise plus a 440 Hz tone, amplitude about 0.1; channel ``k`` is the source delayed
@@ -177,6 +179,10 @@ def _bad_values(hint) -> list:
         return [3.0, {"__no_such_param__": 1}]
     if base in (float, int):
         return [float("nan"), "not-a-number"]
+    if base is bool:
+        return ["yes"]
+    if base is str:
+        return [3.0]
     return []
 
 
