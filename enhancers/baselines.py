@@ -147,7 +147,11 @@ class DelayAndSum(Enhancer):
 
     @staticmethod
     def _filter(ext: np.ndarray, h: np.ndarray) -> np.ndarray:
-        # ext holds n_taps - 1 history samples then the block; 'valid' gives one output per block sample.
+        # ext holds n_taps - 1 history samples then the block; 'valid' gives one output per
+        # block sample.  An empty block must give no output (np.convolve would swap its
+        # arguments when ext is shorter than h).
+        if ext.shape[1] < h.shape[1]:
+            return np.zeros(0)
         return np.convolve(ext[0], h[0], mode="valid") + np.convolve(ext[1], h[1], mode="valid")
 
     def _apply(self, x: np.ndarray, h: np.ndarray) -> np.ndarray:

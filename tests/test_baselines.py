@@ -104,6 +104,13 @@ def test_das_streaming_matches_batch_for_odd_blocks(rng):
     np.testing.assert_allclose(stream(e, x, FS, 13), e.process(x, FS).output, rtol=0, atol=1e-12)
 
 
+def test_das_empty_block_gives_empty_output_regression():
+    """np.convolve swaps its arguments when the first is shorter: an empty block gave 2 samples."""
+    e = make("das")
+    out, _ = e.process_block(np.zeros((2, 0)), e.init_state(FS))
+    assert out.shape == (1, 0)
+
+
 def test_das_rejects_spacing_too_large_for_fir():
     e = DelayAndSum(spacing_m=1.0)  # 46 samples at 16 kHz, beyond a 32-tap filter
     with pytest.raises(ParameterError, match="spacing_m"):
