@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize_scalar
+from scipy.signal import oaconvolve
 
 __all__ = [
     "DifferentialFilters",
@@ -163,6 +164,11 @@ def branch_signals(ext: np.ndarray, filters: DifferentialFilters, n_out: int) ->
     start = hist - L
     bulk = ext[:, start:start + n_out]
     seg = ext[:, hist - (len(h) - 1):]
-    d1 = np.convolve(seg[0], h, mode="valid")
-    d2 = np.convolve(seg[1], h, mode="valid")
+    if n_out >= 4096 and len(h) > 8:
+        # long blocks: overlap-add FFT convolution (same result to ~1e-16 relative, several x faster)
+        d = oaconvolve(seg, h[None, :], mode="valid", axes=-1)
+        d1, d2 = d[0], d[1]
+    else:
+        d1 = np.convolve(seg[0], h, mode="valid")
+        d2 = np.convolve(seg[1], h, mode="valid")
     return bulk[0] - d2, bulk[1] - d1, bulk[0]

@@ -208,16 +208,16 @@ class ElkoBeamformer(_DifferentialBase):
         s_11[0] += state.s_11
         n_closed = (state.phase + n) // B
         beta = state.beta
-        betas_blk = np.empty(n_blk)
-        # scalar recursion over blocks (clipping makes it nonlinear); Python floats are fastest here
-        fb_l, bb_l, l11 = s_fb.tolist(), s_bb.tolist(), s_11.tolist()
-        for i in range(n_blk):
-            betas_blk[i] = beta
-            if i < n_closed:
-                den = bb_l[i] + eps * l11[i] + _TINY
-                beta += mu * (fb_l[i] - beta * bb_l[i]) / den   # sum(y cB) with y = cF - beta cB
-                beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
-        betas = betas_blk[k]
+        # scalar recursion over blocks (clipping makes it nonlinear); Python floats are fastest here.
+        # beta += mu sum(y cB) / den with sum(y cB) = sum(cF cB) - beta sum(cB^2)  (y with the old beta)
+        gain = (mu * s_fb[:n_closed] / (s_bb[:n_closed] + eps * s_11[:n_closed] + _TINY)).tolist()
+        keep = (1.0 - mu * s_bb[:n_closed] / (s_bb[:n_closed] + eps * s_11[:n_closed] + _TINY)).tolist()
+        betas_l = [beta]
+        for g_i, k_i in zip(gain, keep):
+            beta = beta * k_i + g_i
+            beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
+            betas_l.append(beta)
+        betas = np.asarray(betas_l[:n_blk])[k]
         open_sums = (0.0, 0.0, 0.0) if n_closed == n_blk else (
             float(s_fb[-1]), float(s_bb[-1]), float(s_11[-1]))
         new = _replace(state, beta=beta, phase=(state.phase + n) % B, s_fb=open_sums[0],

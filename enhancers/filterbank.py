@@ -148,7 +148,10 @@ class FilterBank:
         ends = np.arange(first_end, b, r)
         if ends.size:
             # in ext coordinates a frame ending at block index j spans [j, j + N - 1]
-            frames = sliding_window_view(ext, n, axis=-1)[:, ends, :]
+            if ends.size == 1:  # streaming at the hop: one frame, a plain slice
+                frames = ext[:, None, ends[0]:ends[0] + n]
+            else:
+                frames = sliding_window_view(ext, n, axis=-1)[:, ends, :]
             X = np.fft.rfft(frames * self.analysis_window, axis=-1)
         else:
             X = np.zeros((block.shape[0], 0, self.n_bins), dtype=complex)

@@ -101,6 +101,8 @@ def ms1994_step(S: np.ndarray, state: MS1994State, *, alpha: float, sub_len: int
     if F == 0:
         return np.zeros((0, K)), np.zeros((0, K)), state
     M, W = sub_len, state.ring.shape[0]
+    if F == 1:
+        return _ms1994_one_frame(S[0], state, alpha=alpha, sub_len=M)
     p_prev = S[0] if state.P is None else state.P
     P = lfilter([1.0 - alpha], [1.0, -alpha], S, axis=0, zi=(alpha * p_prev)[None, :])[0]
     c = state.count
@@ -125,6 +127,22 @@ def ms1994_step(S: np.ndarray, state: MS1994State, *, alpha: float, sub_len: int
         count=total % M,
     )
     return P, Pmin, new
+
+
+def _ms1994_one_frame(s, state: MS1994State, *, alpha: float, sub_len: int):
+    """Streaming fast path of :func:`ms1994_step` for one frame (same arithmetic, no scans)."""
+    p_prev = s if state.P is None else state.P
+    P = (1.0 - alpha) * s + alpha * p_prev
+    actmin = np.minimum(state.actmin, P)
+    count = state.count + 1
+    if count == sub_len:
+        ring = np.concatenate([state.ring[1:], actmin[None, :]], axis=0)
+        Pmin = ring.min(axis=0)
+        new = MS1994State(P=P, actmin=np.full(s.shape[0], np.inf), ring=ring, count=0)
+    else:
+        Pmin = np.minimum(state.ring.min(axis=0), actmin)
+        new = MS1994State(P=P, actmin=actmin, ring=state.ring, count=count)
+    return P[None, :], Pmin[None, :], new
 
 
 @functools.lru_cache(maxsize=64)

@@ -1,0 +1,138 @@
+"""Real-time factor of the built-in enhancers: processing time / audio duration.
+
+    python -m benchmarks.perf.enhancer_rtf [--seconds 10] [--runs 5] [--block 128]
+
+For ``eb``, ``ss``, ``eb-ss`` (and ``ss-ms2001``, ``eb`` per-sample) on seeded 2-channel
+16 kHz audio (a plane wave of noise plus independent sensor noise): batch ``process`` and
+streaming ``process_block`` with 8 ms blocks (128 samples).  Median of ``--runs`` runs after
+one warm-up run (which also fills the calibration caches).  Targets (issue 3): batch RTF
+<= 0.005, streaming RTF <= 0.05.  The peer column is a numpy ``rfft``/``irfft`` round trip
+of the same audio timed in the same process, so a slow or busy machine shows as a large
+peer time too (timings on a shared 2-core machine are noisy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+FS = 16000
+TARGET_BATCH, TARGET_STREAM = 0.005, 0.05
+
+
+def _make(name: str):
+    """The registry's enhancer, or the local fallback when the registry/chain is not available."""
+    try:
+        import enhancers
+
+        return enhancers.make(name)
+    except Exception:  # registry not ready: build from the algorithm modules directly
+        from enhancers.eb import ElkoBeamformer
+        from enhancers.ss import SpectralSubtraction, SpectralSubtractionMS2001
+
+        if name == "eb-ss":
+            return _Cascade(ElkoBeamformer(), SpectralSubtraction())
+        return {"eb": ElkoBeamformer, "ss": SpectralSubtraction, "ss-ms2001": SpectralSubtractionMS2001}[name]()
+
+
+class _Cascade:
+    """Minimal EB -> SS cascade used only when ``enhancers.make("eb-ss")`` is unavailable."""
+
+    def __init__(self, first, second):
+        self.first, self.second = first, second
+        self.tags = first.tags
+
+    def process(self, x, fs):
+        return self.second.process(self.first.process(x, fs).output, fs)
+
+    def init_state(self, fs):
+        return (self.first.init_state(fs), self.second.init_state(fs))
+
+    def process_block(self, block, state):
+        a, sa = self.first.process_block(block, state[0])
+        b, sb = self.second.process_block(a, state[1])
+        return b, (sa, sb)
+
+
+def _signal(seconds: float, n_channels: int, seed: int = 7) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    n = int(seconds * FS)
+    s = rng.standard_normal(n)
+    x = np.stack([np.roll(s, -k) for k in range(n_channels)]) + 0.01 * rng.standard_normal((n_channels, n))
+    return 0.1 * x
+
+
+def _median_time(fn, runs: int) -> tuple[float, float]:
+    """Median wall-clock and median CPU (process) time of ``fn`` over ``runs`` runs, seconds."""
+    fn()  # warm-up: imports, filter design, omin calibration
+    wall, cpu = [], []
+    for _ in range(runs):
+        t0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    return statistics.median(wall), statistics.median(cpu)
+
+
+def measure(names, *, seconds: float = 10.0, runs: int = 5, block: int = 128) -> list[dict]:
+    rows = []
+    for name, kwargs in names:
+        e = _make(name) if not kwargs else _make_with(name, kwargs)
+        x = _signal(seconds, e.tags.channels_in)
+
+        def batch(e=e, x=x):
+            e.process(x, FS)
+
+        def stream(e=e, x=x):
+            st = e.init_state(FS)
+            for i in range(0, x.shape[-1], block):
+                _, st = e.process_block(x[:, i:i + block], st)
+
+        label = name + ("" if not kwargs else " " + ",".join(f"{k}={v}" for k, v in kwargs.items()))
+        (bw, bc), (sw, sc) = _median_time(batch, runs), _median_time(stream, runs)
+        rows.append({"enhancer": label, "batch": bw / seconds, "batch_cpu": bc / seconds,
+                     "stream": sw / seconds, "stream_cpu": sc / seconds})
+    audio = _signal(seconds, 2)
+    peer = _median_time(lambda: np.fft.irfft(np.fft.rfft(audio, axis=-1), axis=-1), runs)[0]
+    for r in rows:
+        r["peer_s"] = peer
+    return rows
+
+
+def _make_with(name, kwargs):
+    import enhancers
+
+    return enhancers.make(name, **kwargs)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--block", type=int, default=128)
+    args = ap.parse_args(argv)
+    names = [("eb", {}), ("ss", {}), ("eb-ss", {}), ("ss-ms2001", {}), ("eb", {"update": "sample"})]
+    rows = measure(names, seconds=args.seconds, runs=args.runs, block=args.block)
+    print(f"Real-time factor on {args.seconds:g} s of 16 kHz audio, median of {args.runs} runs, "
+          f"streaming blocks of {args.block} samples (targets: batch <= {TARGET_BATCH}, "
+          f"streaming <= {TARGET_STREAM})")
+    print(f"peer: numpy rfft+irfft of the same 2-channel audio took {rows[0]['peer_s'] * 1e3:.2f} ms")
+    print()
+    print("| enhancer | batch RTF (wall) | batch RTF (cpu) | streaming RTF (wall) | streaming RTF (cpu) "
+          "| batch target | streaming target |")
+    print("| --- | ---: | ---: | ---: | ---: | :---: | :---: |")
+    for r in rows:
+        ok_b = "met" if r["batch"] <= TARGET_BATCH else "MISSED"
+        ok_s = "met" if r["stream"] <= TARGET_STREAM else "MISSED"
+        print(f"| {r['enhancer']} | {r['batch']:.5f} | {r['batch_cpu']:.5f} | {r['stream']:.4f} "
+              f"| {r['stream_cpu']:.4f} | {ok_b} | {ok_s} |")
+    print("\n(target columns judge the wall-clock medians; the cpu columns show how much of it is "
+          "waiting for a busy machine)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
