@@ -171,17 +171,9 @@ def _synthesize_raw(n: int, fs: int, rng: np.random.Generator, talker: Talker) -
     source += 0.02 * rng.standard_normal(n) * flow  # breathiness during the open phase
     voiced = source * np.interp(t, t_frames, tracks["av"])
 
-    # Formant cascade with piecewise-constant coefficients per frame, state carried over.
-    formants = tracks["formants"]  # (n_frames, 4)
-    nyq_guard = 0.45 * fs
-    out = np.empty(n)
-    zi = np.zeros((4, 2))
-    for k in range(n_frames):
-        a, b = k * hop, min(n, (k + 1) * hop)
-        if a >= n:
-            break
-        sos = _resonator_sos(np.minimum(formants[k], nyq_guard), _BANDWIDTHS_HZ, fs)
-        out[a:b], zi = sosfilt(sos, voiced[a:b], zi=zi)
+    # Formant cascade, time-varying: each Hann-windowed 10 ms frame of the source is
+    # filtered by that frame's resonators and the outputs are overlap-added.
+    out = _formant_filter(voiced, np.minimum(tracks["formants"], 0.45 * fs), hop, fs)
 
     # Unvoiced: one band-passed noise stream per fricative class, gated by its track.
     for name, (lo, hi) in _FRICATIVES.items():
@@ -189,6 +181,7 @@ def _synthesize_raw(n: int, fs: int, rng: np.random.Generator, talker: Talker) -
         if not np.any(gate):
             continue
         hi = min(hi, 0.45 * fs)
+        lo = min(lo, 0.5 * hi)  # at 8 kHz the /s/ band folds down below Nyquist
         sos = _bandpass_sos(lo, hi, fs)
         noise = sosfilt(sos, rng.standard_normal(n))
         out += noise * np.interp(t, t_frames, gate)
@@ -278,6 +271,48 @@ def _syllable(k, end, rng, vowels, av, af, target, f0, talker, frames) -> int:
     return stop
 
 
+def _formant_filter(x: np.ndarray, formants: np.ndarray, hop: int, fs: int) -> np.ndarray:
+    """Time-varying resonator cascade by windowed overlap-add (vectorized over frames).
+
+    Frame ``k`` is ``x`` around sample ``k * hop`` under a periodic Hann window of
+    length ``2 hop`` (the windows sum to one), filtered in the frequency domain by
+    ``prod_i H_i(z)`` with the formants of control frame ``k`` (see
+    :func:`_resonator_sos`); the FFT length leaves >= 60 ms for the resonators'
+    impulse responses to decay (bandwidth >= 80 Hz: below -100 dB), so circular
+    wrap-around is negligible.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    formants : ndarray, shape (n_frames, n_formants), Hz; ``n_frames >= n // hop + 1``
+    """
+    n = x.size
+    length = 2 * hop
+    n_blocks = -(-(length + int(0.045 * fs)) // hop)  # FFT length: a whole number of hops
+    n_fft = n_blocks * hop
+    window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(length) / length)
+    n_frames = n // hop + 1
+    padded = np.concatenate([np.zeros(hop), x, np.zeros(2 * length)])
+    z1 = np.exp(-2j * np.pi * np.fft.rfftfreq(n_fft))  # z^-1 on the unit circle
+    z2 = z1**2
+    out = np.zeros((n_frames + n_blocks + 1, hop))  # output in blocks of one hop
+    r = np.exp(-np.pi * _BANDWIDTHS_HZ / fs)
+    for c0 in range(0, n_frames, 512):  # chunks bound the memory of the (frames, bins) arrays
+        ks = np.arange(c0, min(n_frames, c0 + 512))
+        idx = ks[:, None] * hop + np.arange(length)[None, :]
+        frames = padded[idx] * window
+        a1 = -2.0 * r * np.cos(2.0 * np.pi * formants[ks] / fs)  # (frames, n_formants)
+        spec = np.fft.rfft(frames, n_fft)
+        for i in range(a1.shape[1]):
+            spec *= (1.0 + a1[:, i:i + 1] + r[i] ** 2) / (1.0 + a1[:, i:i + 1] * z1 + r[i] ** 2 * z2)
+        y = np.fft.irfft(spec, n_fft).reshape(ks.size, n_blocks, hop)
+        for blk in range(n_blocks):
+            out[ks + blk] += y[:, blk]
+    out = out.ravel()
+    # Frame k starts at k*hop - hop; the first `hop` output samples precede x.
+    return out[hop:hop + n]
+
+
 def _resonator_sos(freqs_hz: np.ndarray, bws_hz: np.ndarray, fs: int) -> np.ndarray:
     """Cascade of unity-DC-gain 2nd-order resonators (Klatt 1980), shape (n_formants, 6).
 
@@ -323,7 +358,7 @@ def _equaliser(talker: Talker, fs: int) -> np.ndarray:
     # only ~40 Hz apart), so the residual is measured and fed back three times.
     for _ in range(3):
         taps = _fir_from_band_gains(gain_db, freqs, n_taps, fs)
-        residual = target - band_levels_db(np.convolve(calib, taps, mode="same"), fs, centers,
+        residual = target - band_levels_db(oaconvolve(calib, taps, mode="same"), fs, centers,
                                            nperseg=4096)
         gain_db = np.clip(gain_db + residual - np.mean(residual), -30.0, 30.0)
     return _fir_from_band_gains(gain_db, freqs, n_taps, fs)

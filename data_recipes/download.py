@@ -9,7 +9,10 @@ created only once the server has answered, so an offline machine fails at once
 from __future__ import annotations
 
 import os
+import socket
+import threading
 import urllib.error
+import urllib.parse
 import urllib.request
 from pathlib import Path
 
@@ -60,6 +63,7 @@ def fetch(url: str, dest: Path, *, timeout_s: float = DEFAULT_TIMEOUT_S) -> str:
     if have:
         headers["Range"] = f"bytes={have}-"
     request = urllib.request.Request(url, headers=headers)
+    _resolve_or_fail(url, timeout_s)
     try:
         response = urllib.request.urlopen(request, timeout=timeout_s)  # noqa: S310 (http(s) only)
     except urllib.error.HTTPError as exc:
@@ -93,3 +97,29 @@ def fetch(url: str, dest: Path, *, timeout_s: float = DEFAULT_TIMEOUT_S) -> str:
     part.replace(dest)
     return sha256_of(dest)
 
+
+
+def _resolve_or_fail(url: str, timeout_s: float) -> None:
+    """Resolve the URL's host within ``timeout_s`` (``urlopen``'s timeout does not cover DNS).
+
+    The lookup runs in a daemon thread so that a hanging resolver on an offline machine
+    cannot delay the error beyond the timeout.
+    """
+    host = urllib.parse.urlsplit(url).hostname
+    if not host:
+        raise DownloadError(f"cannot download {url!r}: no host in the URL", url=url)
+    outcome: dict = {}
+
+    def lookup():
+        try:
+            outcome["ok"] = socket.getaddrinfo(host, None)
+        except OSError as exc:
+            outcome["error"] = exc
+
+    worker = threading.Thread(target=lookup, daemon=True)
+    worker.start()
+    worker.join(timeout_s)
+    if "ok" in outcome:
+        return
+    reason = outcome.get("error", f"DNS lookup of {host} timed out after {timeout_s:g} s")
+    raise DownloadError(f"cannot connect to {url} ({reason})", url=url)
