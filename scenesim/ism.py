@@ -40,6 +40,7 @@ image-mic terms) and ``"fast"`` otherwise.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -240,6 +241,7 @@ def _render_exact(imgs: _Images, n_taps: int, fs, c) -> np.ndarray:
     return out.reshape(n_mics, n_taps)
 
 
+@functools.lru_cache(maxsize=32)
 def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
     """FFTs ``(u, n_fft // 2 + 1)`` of the windowed-sinc kernel's polyphase branches.
 
@@ -257,7 +259,9 @@ def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
     hp[0] = poly[0]
     for j in range(1, u):
         hp[j, 1:] = poly[u - j, :-1]
-    return np.fft.rfft(hp, n_fft, axis=-1)
+    spec = sfft.rfft(hp, n_fft, axis=-1)
+    spec.flags.writeable = False  # cached and shared between calls
+    return spec
 
 
 class _Scatter:
@@ -353,6 +357,7 @@ def _render_fast(imgs: _Images, n_taps: int, fs, c, oversampling: int = FAST_OVE
     spec = sfft.rfft(x, n_fft, axis=-1)
     spec *= _polyphase_kernel_fft(u, n_fft)
     y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
+    del spec, x
     # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1).
     start = 2 * half + 1
     return np.ascontiguousarray(y[:, start : start + n_taps])
