@@ -110,3 +110,35 @@ def test_name_parsing():
     assert talker_from_name("cmu_arctic_a0009.wav") is None
     assert noise_type_from_name("machinery_exercise-bike_ccby.wav") == "machinery"
     assert noise_type_from_name("babble.wav") == "babble"
+
+
+def _write_noise(path: Path, seconds: float, fs: int = 8000, seed: int = 0) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    x = 0.1 * np.random.default_rng(seed).standard_normal(int(seconds * fs))
+    sf.write(str(path), x, fs, subtype="PCM_16")
+
+
+def test_noisex92_files_become_typed_noise_files(tmp_path):
+    src, dest = tmp_path / "noisex", tmp_path / "data"
+    _write_noise(src / "babble.wav", 61.0)
+    _write_noise(src / "factory1.wav", 61.0, seed=1)
+    _write_noise(src / "Factory2.wav", 61.0, seed=2)
+    _write_noise(src / "readme.wav", 61.0)  # not a NOISEX name: ignored
+    manifest = registry.prepare("noisex92", dest, src=src, fs=16000)
+    names = sorted(p.name for p in (dest / "noise").iterdir())
+    assert names == ["babble_noisex92.wav", "factory_noisex92-2.wav", "factory_noisex92.wav"]
+    assert scan_local(dest).noise_types == ("babble", "factory")
+    for entry in manifest["files"]:
+        assert entry["fs"] == 16000 and re.fullmatch(r"[0-9a-f]{64}", entry["sha256"])
+        # 61 s at 8 kHz resampled to 16 kHz keeps its duration exactly (integer ratio 2).
+        np.testing.assert_allclose(entry["duration_s"], 61.0, atol=1e-9)
+    assert "white" in manifest["missing"]
+
+
+def test_noisex92_rejects_short_files_by_name_and_empty_folders(tmp_path):
+    _write_noise(tmp_path / "nx" / "white.wav", 5.0)
+    with pytest.raises(DataError, match="white.wav"):
+        registry.prepare("noisex92", tmp_path / "d", src=tmp_path / "nx")
+    (tmp_path / "none").mkdir()
+    with pytest.raises(DataError, match="babble.wav"):
+        registry.prepare("noisex92", tmp_path / "d", src=tmp_path / "none")
