@@ -27,6 +27,14 @@ from scenesim.validate import check_finite_number, check_int, check_positive, ch
 __all__ = ["Passthrough", "DelayAndSum", "fractional_delay_fir"]
 
 
+def _check_component(component, shape: tuple[int, int]) -> np.ndarray:
+    """Validate a replay component: finite, shaped like the processed input."""
+    c = check_signal(component, name="component", n_channels=shape[0], min_samples=0)
+    if c.shape != shape:
+        raise ParameterError("component", component, f"shape {shape} like the processed input")
+    return c
+
+
 class Passthrough(Enhancer):
     """The reference mic (channel 0) unchanged: the 'no processing' row of every table."""
 
@@ -44,8 +52,7 @@ class Passthrough(Enhancer):
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
         def replay(component) -> np.ndarray:
-            c = check_signal(component, name="component", n_channels=2, min_samples=0)
-            return c[0:1].copy()
+            return _check_component(component, x.shape)[0:1].copy()
 
         return Result(output=x[0:1].copy(), trace={}, _replay=replay)
 
@@ -163,8 +170,7 @@ class DelayAndSum(Enhancer):
         h = self.filters(fs)
 
         def replay(component) -> np.ndarray:
-            c = check_signal(component, name="component", n_channels=2, min_samples=0)
-            return self._apply(c, h)
+            return self._apply(_check_component(component, x.shape), h)
 
         return Result(output=self._apply(x, h), trace={}, _replay=replay)
 

@@ -45,7 +45,7 @@ from enhancers.base import Enhancer, Params, Result, Tags
 from enhancers.registry import get_spec
 from scenesim.errors import ParameterError
 from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS
-from scenesim.validate import check_positive
+from scenesim.validate import check_positive, check_signal
 
 __all__ = ["Chain", "ChainParams", "EbSs", "chain_class", "hop_of"]
 
@@ -305,7 +305,9 @@ class Chain(Enhancer):
         }
 
         def replay(component) -> np.ndarray:
-            y = component
+            y = check_signal(component, name="component", n_channels=x.shape[0], min_samples=0)
+            if y.shape != x.shape:
+                raise ParameterError("component", component, f"shape {x.shape} like the processed input")
             for result in results:
                 y = result.replay(y)
             return y

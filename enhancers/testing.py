@@ -285,6 +285,8 @@ def check_output(enhancer) -> None:
         _fail(enhancer, "output", "output has NaN or Inf")
     if not np.any(y):
         _fail(enhancer, "output", "output is all zeros for a non-silent input")
+    if np.shares_memory(y, x):
+        _fail(enhancer, "output", "output shares memory with the input (return a new array)")
     for key, value in result.trace.items():
         if not isinstance(key, str) or not isinstance(value, np.ndarray):
             _fail(enhancer, "output", f"trace entry {key!r} is not str -> ndarray")
@@ -437,6 +439,31 @@ def check_replay_linear(enhancer) -> None:
     _close(enhancer, "replay_linear", "replay(s + v) vs replay(s) + replay(v)", result.replay(s + v), ys + yv)
 
 
+def check_replay_rejects_bad_component(enhancer) -> None:
+    """Replay of a component with the wrong length, channel count, or NaN raises ParameterError."""
+    if not enhancer.tags.replayable:
+        return
+    fs = test_fs(enhancer)
+    s, v = _components(enhancer, fs)
+    result = enhancer.process(s + v, fs)
+    n_in, n = s.shape
+    nan = s.copy()
+    nan[0, n // 2] = np.nan
+    cases = {
+        "a shorter component": s[:, : n // 2],
+        f"{n_in + 1} channels": np.zeros((n_in + 1, n)),
+        "NaN in the component": nan,
+    }
+    for what, bad in cases.items():
+        try:
+            result.replay(bad)
+        except ParameterError:
+            continue
+        except Exception as exc:
+            _fail(enhancer, "replay_rejects_bad_component", f"{what}: raised {type(exc).__name__}, not ParameterError: {exc}")
+        _fail(enhancer, "replay_rejects_bad_component", f"{what}: accepted")
+
+
 def check_geometry(enhancer) -> None:
     """``needs_geometry`` enhancers take ``spacing_m``/``c_mps``; ``with_geometry`` sets them."""
     if not enhancer.tags.needs_geometry:
@@ -472,6 +499,7 @@ CHECKS: dict[str, Callable[[Enhancer], None]] = {
     "pickle": check_pickle,
     "replay_mixture": check_replay_mixture,
     "replay_linear": check_replay_linear,
+    "replay_rejects_bad_component": check_replay_rejects_bad_component,
     "geometry": check_geometry,
 }
 """Every check by name, in the order ``check_enhancer`` runs them."""

@@ -23,6 +23,7 @@ PLUGIN_CODE = '''
 from dataclasses import dataclass
 import numpy as np
 from enhancers.base import Enhancer, Params, Result, Tags
+from scenesim.errors import ParameterError
 from scenesim.validate import check_finite_number, check_signal
 
 class Gain(Enhancer):
@@ -43,7 +44,14 @@ class Gain(Enhancer):
 
     def _process(self, x, fs):
         g = self.params.gain
-        return Result(output=g * x[0:1], _replay=lambda c: g * check_signal(c, n_channels=2, min_samples=0)[0:1])
+
+        def replay(c):
+            c = check_signal(c, name="component", n_channels=2)
+            if c.shape != x.shape:
+                raise ParameterError("component", c, f"shape {x.shape}")
+            return g * c[0:1]
+
+        return Result(output=g * x[0:1], _replay=replay)
 
     def _init_state(self, fs):
         return None
