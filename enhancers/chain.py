@@ -82,6 +82,8 @@ class ChainParams(Params):
                 "spacing_m": check_positive("spacing_m", self.spacing_m),
                 "c_mps": check_positive("c_mps", self.c_mps),
             }
+            for key, value in geometry.items():
+                object.__setattr__(self, key, value)  # ints become floats, as the stages store them
         for info in self._stages:
             value = getattr(self, info.prefix)
             if isinstance(value, Mapping):
@@ -154,8 +156,19 @@ class ChainParams(Params):
         return out
 
 
+def _check_stages(pairs: Sequence[tuple[str, str]]) -> None:
+    if not pairs:
+        raise ParameterError("stages", pairs, "at least one stage")
+    if len({p for p, _ in pairs}) != len(pairs):
+        raise ParameterError("stages", pairs, "distinct stage prefixes (pass (prefix, name) pairs)")
+    for prefix, _ in pairs:
+        if not prefix.isidentifier() or prefix in _GEOMETRY or hasattr(ChainParams, prefix):
+            raise ParameterError("stages", pairs, f"prefixes that are free identifiers, not {prefix!r}")
+
+
 def _build_params_class(owner: type) -> type:
     """Generate ``owner.Params`` from its stages (imports the stage classes)."""
+    _check_stages(owner.stages)
     infos = []
     fields: list[tuple[str, Any, Any]] = []
     for prefix, ref in owner.stages:
@@ -191,8 +204,6 @@ class _LazyParams:
     def __get__(self, obj, owner):
         cls = owner.__dict__.get("_params_cls")
         if cls is None:
-            if not owner.stages:
-                raise ParameterError("stages", owner.stages, "a chain class with at least one stage")
             cls = _build_params_class(owner)
             owner._params_cls = cls
         return cls
@@ -369,13 +380,7 @@ def chain_class(
     """
     pairs = tuple((s, s) if isinstance(s, str) else (str(s[0]), str(s[1])) for s in stages)
     pairs = tuple((re.sub(r"@.*$", "", p).replace("-", "_"), r) for p, r in pairs)
-    if not pairs:
-        raise ParameterError("stages", stages, "at least one stage")
-    if len({p for p, _ in pairs}) != len(pairs):
-        raise ParameterError("stages", stages, "distinct stage prefixes (pass (prefix, name) pairs)")
-    for prefix, _ in pairs:
-        if not prefix.isidentifier() or prefix in _GEOMETRY:
-            raise ParameterError("stages", stages, f"prefixes that are identifiers, not {prefix!r}")
+    _check_stages(pairs)
     key = (name, pairs, str(version), summary)
     cls = _CHAIN_CLASSES.get(key)
     if cls is None:

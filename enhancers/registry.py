@@ -15,9 +15,9 @@ Modelled on Gymnasium's ``envs/registration.py``:
       myplug = "myplug:Gain"
 
   The entry-point name is the registry name; ``"name@2"`` adds version 2 of an existing
-  name (a bare name that is already registered is refused: plugins cannot shadow).  Entry points are scanned once, lazily, on
-  the first listing (``available``/``describe``) or on the first lookup of a name that is
-  not built in.
+  name (a bare name that is already registered is refused: plugins cannot shadow).
+  Entry points are scanned once, lazily, on the first listing (``available``/``describe``)
+  or on the first lookup of a name that is not built in; ``reload_plugins()`` rescans.
 
 Broken plugins never break the built-ins (decision, documented here): a plugin whose
 entry point cannot be registered (duplicate name) or whose module fails to import stays
@@ -171,7 +171,9 @@ def register(
     Raises
     ------
     PluginError
-        If ``name`` with the same version is already registered.
+        If ``name`` with the same version is already registered, or ``name`` exists and
+        this entry's version is unknown (a lazy string without ``version=``): a second
+        version of a name must say which it is.
     """
     base, at_version = _split(name)
     if at_version is not None:
