@@ -1,0 +1,102 @@
+"""Cost of the metrics per condition (the floor of a sweep; algorithms.md section 8).
+
+    python -m benchmarks.perf.metrics_cost [--seconds 10] [--runs 5]
+
+On seeded 16 kHz audio (a speech-like harmonic complex with syllabic modulation, white
+noise at 5 dB): each metric function, ``input_metrics`` (once per mixture) and
+``evaluate_enhancer`` with a passthrough-like enhancer (all output metrics, replay SNR).
+Median of ``--runs`` runs after one warm-up.  Stated costs: PESQ ~0.15-0.2 s per call on
+10 s, STOI ~0.07 s.  The peer column is a numpy ``rfft``/``irfft`` round trip of the same
+audio in the same process, so a busy machine shows as a large peer time too (timings on a
+shared 2-core machine are noisy).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from benchmarks import metrics as M
+from benchmarks.evaluate import evaluate_enhancer, input_metrics
+from enhancers.base import Enhancer, Result, Tags
+
+FS = 16000
+
+
+@dataclass(frozen=True)
+class _Scene:
+    mixture: np.ndarray
+    speech_image: np.ndarray
+    noise_image: np.ndarray
+    reference: np.ndarray
+    fs: int
+    snr_db: float
+
+
+class _Front(Enhancer):
+    name = "perf-front"
+
+    @property
+    def tags(self) -> Tags:
+        return Tags(channels_in=2)
+
+    def _process(self, x, fs):
+        return Result(output=x[:1].copy(), _replay=lambda c: np.asarray(c)[:1].copy())
+
+
+def _signals(seconds: float, rng: np.random.Generator) -> _Scene:
+    t = np.arange(int(seconds * FS)) / FS
+    s = 0.1 * np.clip(np.sin(2 * np.pi * 4 * t), 0, None) ** 2
+    s = s * sum(np.sin(2 * np.pi * 150 * k * t) / k for k in range(1, 20))
+    n = rng.standard_normal((2, t.size))
+    n *= np.sqrt(np.mean(s**2) / np.mean(n[0] ** 2) / 10**0.5)
+    speech = np.stack([s, np.roll(s, 1)])
+    return _Scene(speech + n, speech, n, s[None], FS, 5.0)
+
+
+def _median_time(func, runs: int) -> float:
+    func()  # warm-up
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--runs", type=int, default=5)
+    args = ap.parse_args(argv)
+    sc = _signals(args.seconds, np.random.default_rng(0))
+    ref, deg = sc.reference[0], sc.mixture[0]
+    inputs = input_metrics(sc)
+    cases = {
+        "snr_db": lambda: M.snr_db(sc.speech_image[0], sc.noise_image[0]),
+        "segmental_snr_db": lambda: M.segmental_snr_db(ref, deg, fs=FS),
+        "si_sdr_db": lambda: M.si_sdr_db(ref, deg),
+        "estimate_lag (±512)": lambda: M.estimate_lag(deg, ref, max_lag=512),
+        "pesq_scores (nb + wb)": lambda: M.pesq_scores(ref, deg, fs=FS),
+        "stoi_scores (stoi + estoi)": lambda: M.stoi_scores(ref, deg, fs=FS),
+        "input_metrics": lambda: input_metrics(sc),
+        "evaluate_enhancer (front mic)": lambda: evaluate_enhancer(
+            _Front(), sc, input_metrics=inputs
+        ),
+    }
+    peer = _median_time(lambda: np.fft.irfft(np.fft.rfft(deg), deg.size), args.runs)
+    print(f"# metrics cost on {args.seconds:g} s at {FS} Hz, median of {args.runs} runs")
+    print(f"{'what':32s} {'median s':>10s} {'x peer':>10s}")
+    for name, func in cases.items():
+        t = _median_time(func, args.runs)
+        print(f"{name:32s} {t:10.4f} {t / peer:10.1f}")
+    print(f"{'peer: rfft+irfft':32s} {peer:10.5f} {1:10.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
