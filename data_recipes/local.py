@@ -13,13 +13,12 @@ import hashlib
 import json
 import re
 from dataclasses import dataclass
-from math import gcd
 from pathlib import Path
 
 import numpy as np
 import soundfile as sf
-from scipy.signal import resample_poly
 
+from scenesim.audio import resample, write_audio
 from scenesim.errors import DataError
 from scenesim.validate import check_fs
 
@@ -215,22 +214,14 @@ def scan_local(root: Path | str, *, hash_files: bool = True) -> LocalScan:
 def load_mono(path: Path, *, fs: int) -> np.ndarray:
     """Read an audio file as a 1-D float64 array at ``fs``: channels averaged, then resampled.
 
-    Resampling uses :func:`scipy.signal.resample_poly` (polyphase, Kaiser window) with
-    the ratio reduced by the greatest common divisor.
+    Resampling: :func:`scenesim.audio.resample` (polyphase ``resample_poly``, ratio
+    reduced by the greatest common divisor).
     """
     fs = check_fs(fs)
     x, fs_file, reason = check_audio_file(Path(path))
     if reason is not None:
         raise DataError(f"{path}: {reason}")
     return resample(x.mean(axis=0), fs_file, fs)
-
-
-def resample(x: np.ndarray, fs_from: int, fs_to: int) -> np.ndarray:
-    """Polyphase resampling of the last axis from ``fs_from`` to ``fs_to`` (Hz)."""
-    if fs_from == fs_to:
-        return np.asarray(x, dtype=float)
-    g = gcd(int(fs_from), int(fs_to))
-    return resample_poly(x, fs_to // g, fs_from // g, axis=-1)
 
 
 def prepare_local(
@@ -270,11 +261,8 @@ def prepare_local(
         out = (dest / rel).with_suffix(".wav")
         out.parent.mkdir(parents=True, exist_ok=True)
         rate = entry.fs if fs is None else check_fs(fs)
-        x = load_mono(entry.path, fs=rate)
-        peak = np.max(np.abs(x))
-        if peak > 1.0:  # resampling can overshoot a full-scale file; keep it representable
-            x = x / peak
-        sf.write(str(out), x, rate, subtype="PCM_16")
+        # Resampling can overshoot a full-scale file: normalize keeps it representable.
+        write_audio(out, load_mono(entry.path, fs=rate), rate, subtype="PCM_16", normalize=True)
     manifest = scan_local(dest).manifest()
     manifest["recipe"] = "local"
     manifest["converted_from"] = str(scan.root)

@@ -15,9 +15,9 @@ import json
 from pathlib import Path
 
 import numpy as np
-import soundfile as sf
 
-from data_recipes.local import check_audio_file, resample, sha256_of
+from data_recipes.local import check_audio_file, sha256_of
+from scenesim.audio import resample, write_audio
 from scenesim.errors import DataError
 from scenesim.validate import check_fs, check_positive
 
@@ -82,8 +82,7 @@ def prepare_noisex92(
         kind = NOISEX_FILES[stem]
         take = stem[-1] if stem[-1].isdigit() and stem[-1] != "1" else ""
         rel = f"noise/{kind}_noisex92{'-' + take if take else ''}.wav"
-        peak = np.max(np.abs(y))
-        sf.write(str(dest / rel), y / peak if peak > 1.0 else y, fs, subtype="PCM_16")
+        write_audio(dest / rel, y, fs, subtype="PCM_16", normalize=True)
         entries.append({"file": rel, "noise_type": kind, "original": str(found[stem]),
                         "duration_s": round(y.size / fs, 6), "fs": fs, "sha256": sha256_of(dest / rel)})
     manifest = {"recipe": "noisex92", "source": str(src), "dest": str(dest), "files": entries,

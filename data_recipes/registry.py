@@ -8,7 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import soundfile as sf
 
 from data_recipes.artificial_voice import TALKERS, artificial_voice
 from data_recipes.cmu_arctic import prepare_cmu_arctic
@@ -16,6 +15,7 @@ from data_recipes.download import cache_dir
 from data_recipes.local import prepare_local, sha256_of
 from data_recipes.noise_synthesis import synthesize_noise
 from data_recipes.noisex92 import prepare_noisex92
+from scenesim.audio import write_audio
 from scenesim.errors import ParameterError
 from scenesim.validate import check_fs, check_int, check_positive
 
@@ -56,7 +56,7 @@ def prepare_artificial_voice(
     for k, talker in enumerate(TALKERS):
         x, _ = artificial_voice(duration_s, fs=fs, seed=seed + k, talker=talker)
         rel = f"speech/artificial-voice_{talker.name}.wav"
-        sf.write(str(dest / rel), x, fs, subtype="PCM_16")
+        write_audio(dest / rel, x, fs, subtype="PCM_16", normalize=True)
         files.append({"file": rel, "talker": talker.name, "sex": talker.sex, "seed": seed + k,
                       "duration_s": x.size / fs, "fs": fs, "sha256": sha256_of(dest / rel)})
     if noise_s > 0:
@@ -65,7 +65,7 @@ def prepare_artificial_voice(
             rng = np.random.default_rng([seed, 1000 + j])
             synth = synthesize_noise(noise_type, int(round(noise_s * fs)), fs=fs, rng=rng)
             rel = f"noise/{noise_type}_synthetic.wav"
-            sf.write(str(dest / rel), synth.signal[0], fs, subtype="PCM_16")
+            write_audio(dest / rel, synth.signal[0], fs, subtype="PCM_16", normalize=True)
             files.append({"file": rel, "noise_type": noise_type, "components": list(synth.components),
                           "duration_s": noise_s, "fs": fs, "sha256": sha256_of(dest / rel)})
     manifest = {"recipe": "artificial-voice", "dest": str(dest), "files": files}

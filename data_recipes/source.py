@@ -10,6 +10,7 @@ voice + synthesized noises).  A noise type the directory lacks is synthesized wi
 
 from __future__ import annotations
 
+import json
 import os
 import warnings
 import zlib
@@ -107,6 +108,7 @@ class DataSource:
         self.root = None if root is None else Path(root).expanduser().resolve()
         self._cache: dict[Path, np.ndarray] = {}
         self._scan: LocalScan | None = None
+        self._kind = "local"
         if self.root is not None:
             scan = scan_local(self.root, hash_files=False)
             if scan.bad:
@@ -127,14 +129,16 @@ class DataSource:
                     stacklevel=3,
                 )
             self._scan = scan
+            self._kind = _recipe_of(self.root)
 
     # ------------------------------------------------------------------ description
     @property
     def description(self) -> str:
-        """``"built-in (artificial voice + synthesized noise)"`` or ``"local:<dir>"``."""
+        """``"built-in (artificial voice + synthesized noise)"``, ``"local:<dir>"``, or
+        ``"cmu-arctic:<dir>"`` for a directory filled by the ``cmu-arctic`` recipe."""
         if self.root is None:
             return "built-in (artificial voice + synthesized noise)"
-        return f"local:{self.root}"
+        return f"{self._kind}:{self.root}"
 
     def __repr__(self) -> str:
         return f"DataSource({self.description!r}, fs={self.fs})"
@@ -259,6 +263,15 @@ class DataSource:
         state = dict(self.__dict__)
         state["_cache"] = {}  # decoded audio is re-read lazily in the receiving process
         return state
+
+
+def _recipe_of(root: Path) -> str:
+    """``"cmu-arctic"`` when ``root/manifest.json`` says that recipe made the directory, else ``"local"``."""
+    try:
+        manifest = json.loads((root / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return "local"
+    return "cmu-arctic" if isinstance(manifest, dict) and manifest.get("recipe") == "cmu-arctic" else "local"
 
 
 def _tag(text: str) -> int:

@@ -111,3 +111,16 @@ def test_directory_with_nothing_usable_is_a_data_error(tmp_path):
     (tmp_path / "speech" / "broken.wav").write_bytes(b"")
     with pytest.warns(DataFallbackWarning), pytest.raises(DataError, match="no usable audio"):
         open_data(tmp_path, fs=FS)
+
+
+def test_directory_made_by_cmu_arctic_recipe_is_described_as_such(tmp_path):
+    import json
+
+    import soundfile as sf
+
+    (tmp_path / "speech").mkdir()
+    noise = 0.1 * np.random.default_rng(0).standard_normal(FS)
+    sf.write(str(tmp_path / "speech" / "cmu_arctic_us_slt_a0001.wav"), noise, FS)
+    (tmp_path / "manifest.json").write_text(json.dumps({"recipe": "cmu-arctic", "files": []}))
+    clip = open_data(tmp_path, fs=FS).speech(1.0, seed=0)
+    assert clip.source == f"cmu-arctic:{tmp_path.resolve()}"
