@@ -97,3 +97,19 @@ def test_bad_param_is_named(tmp_path, stereo_wav, capsys, param, name):
 def test_missing_input_is_data_error(tmp_path, capsys):
     assert main(["enhance", str(tmp_path / "none.wav"), str(tmp_path / "o.wav"), "-e", "das"]) == 2
     assert "none.wav" in capsys.readouterr().err
+
+
+def test_channel_selection_and_resampling(tmp_path, rng, capsys):
+    x = 0.1 * rng.standard_normal((3, 4000))
+    path = tmp_path / "three.wav"
+    sf.write(path, x.T, 8000, subtype="DOUBLE")
+    out = tmp_path / "o.wav"
+    # Channel 2 as the reference mic, resampled to 16 kHz (oracle: scenesim.audio.resample).
+    assert main(["enhance", str(path), str(out), "-e", "passthrough", "--channels", "2,0", "--fs", "16000"]) == 0
+    from scenesim.audio import resample
+
+    y, fs = _read(out)
+    assert fs == 16000
+    np.testing.assert_allclose(y, resample(x[2:3], 8000, 16000), rtol=0, atol=1e-6)
+    assert main(["enhance", str(path), str(out), "-e", "passthrough", "--channels", "0,3"]) == 2
+    assert "Parameter --channels='0,3'" in capsys.readouterr().err

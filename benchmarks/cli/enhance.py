@@ -6,7 +6,9 @@ same convention as a sweep) and says so.  The output is written as a float WAV a
 input's rate, the same length as the input; its delay relative to the input is the
 enhancer's declared latency, printed at the end.
 
-Stage parameters of a chain use dotted names: ``--param ss.alpha=0.9``.
+Stage parameters of a chain use dotted names: ``--param ss.alpha=0.9``.  ``--channels``
+picks channels of a multichannel recording (reference mic first) and ``--fs`` resamples
+the input first (for enhancers with ``supported_fs``).
 """
 
 from __future__ import annotations
@@ -42,6 +44,11 @@ def add_parser(subparsers):
     )
     p.add_argument("--spacing-m", type=float, default=None, help="mic spacing in metres (enhancers that need geometry)")
     p.add_argument("--c-mps", type=float, default=None, help="speed of sound in m/s (default 343)")
+    p.add_argument(
+        "--channels", default=None, metavar="I,J",
+        help="comma-separated input channels to use, reference mic first (default: all)",
+    )
+    p.add_argument("--fs", type=int, default=None, help="resample the input to this rate (Hz) first")
     p.add_argument("--trace", type=Path, default=None, metavar="NPZ", help="also save the enhancer's trace (beta, gains, ...) to this .npz")
     p.set_defaults(func=run)
     return p
@@ -55,6 +62,19 @@ def _parse_params(items: list[str]) -> dict[str, str]:
             raise ParameterError("--param", item, "KEY=VALUE")
         values[key.strip()] = value.strip()
     return values
+
+
+def _parse_channels(text: str, n_available: int, path) -> list[int]:
+    try:
+        picks = [int(part) for part in text.split(",")]
+    except ValueError:
+        raise ParameterError("--channels", text, "comma-separated channel indices such as 0,1") from None
+    bad = [i for i in picks if not 0 <= i < n_available]
+    if not picks or bad:
+        raise ParameterError(
+            "--channels", text, f"indices in 0..{n_available - 1} ({path} has {n_available} channel(s))"
+        )
+    return picks
 
 
 def run(args) -> int:
@@ -76,7 +96,9 @@ def run(args) -> int:
     elif tags.needs_geometry:
         notes.append(f"using the default spacing_m={enhancer.params.spacing_m} m (set --spacing-m)")
 
-    x, fs = read_audio(args.input)
+    x, fs = read_audio(args.input, fs=args.fs)
+    if args.channels is not None:
+        x = x[_parse_channels(args.channels, x.shape[0], args.input)]
     n_in = tags.channels_in
     if x.shape[0] != n_in:
         if n_in == 1:
