@@ -29,9 +29,14 @@ from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slic
 _ORDER = ("passthrough", "eb", "ss", "eb-ss")
 
 
+def _rank(name) -> int:
+    base = T.base_name(name)
+    return _ORDER.index(base) if base in _ORDER else len(_ORDER)
+
+
 def _enhancers(rows) -> list[str]:
     names = distinct(rows, "enhancer")
-    return sorted(names, key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
+    return sorted(names, key=lambda n: (_rank(n), str(n)))
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
@@ -271,7 +276,7 @@ def _pick_trace_row(rows: Sequence[dict]) -> dict | None:
 
     def rank(r):
         return (
-            r.get("enhancer") != "eb",
+            T.base_name(r.get("enhancer")) != "eb",
             not T.is_thesis_condition(r),
             r.get("noise") != "babble",
             num(r.get("rt60_s")) or 0.0,

@@ -42,6 +42,13 @@ from benchmarks.report_tables import (
 
 REPORT_DIRNAME = "report"
 _ORDER = ("passthrough", "eb", "ss", "eb-ss")
+
+
+def _rank(name) -> int:
+    base = T.base_name(name)
+    return _ORDER.index(base) if base in _ORDER else len(_ORDER)
+
+
 #: The "All conditions" Markdown table is included up to this many conditions (CSV always).
 MAX_MARKDOWN_CONDITIONS = 150
 
@@ -49,9 +56,7 @@ _THESIS_COLS = ("snr_out_db", "snr_i_db", "pesq_in", "pesq_out", "pesq_i")
 
 
 def _enhancer_order(names: Iterable[str]) -> list[str]:
-    return sorted(
-        set(names), key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), str(n))
-    )
+    return sorted(set(names), key=lambda n: (_rank(n), str(n)))
 
 
 def _with_std(fields: Sequence[str]) -> list[str]:
@@ -79,7 +84,8 @@ def thesis_comparison(ok_rows: Sequence[dict]) -> list[dict[str, Any]]:
     return sorted(
         out,
         key=lambda r: (
-            _enhancer_order([r["enhancer"], *_ORDER]).index(r["enhancer"]),
+            _rank(r["enhancer"]),
+            str(r["enhancer"]),
             r["noise"],
             r["snr_in_db"] if r["snr_in_db"] is not None else math.inf,
         ),
@@ -150,7 +156,13 @@ def failures(rows: Sequence[dict]) -> dict[str, Any]:
                 metric[label] += 1
                 examples.setdefault(label, part)
     latency = [r for r in rows if r.get("latency_check")]
+    warned = [r for r in rows if r.get("warnings")]
+    warning_messages = Counter(
+        part for r in warned for part in str(r["warnings"]).split("; ") if part.strip()
+    )
     return {
+        "n_warning_rows": len(warned),
+        "warning_messages": warning_messages.most_common(),
         "n_error_rows": len(errors),
         "error_messages": by_message.most_common(),
         "error_rows": errors,
@@ -243,7 +255,7 @@ def _averages_section(avg: Sequence[dict]) -> list[str]:
         for a in avg
     ]
     lines += [markdown_table(header, body), ""]
-    ebss = {a["noise"]: a for a in avg if a["enhancer"] == "eb-ss"}
+    ebss = {a["noise"]: a for a in avg if T.base_name(a["enhancer"]) == "eb-ss"}
     noises = [n for n in T.THESIS_NOISES if n in ebss]
     if noises:
         ours = " / ".join(fmt(ebss[n]["snr_i_db"], 1) for n in noises)
@@ -340,6 +352,11 @@ def _failures_section(fail: Mapping[str, Any], n_rows: int) -> list[str]:
         lines.append(
             f"  - {r.get('enhancer')} / {r.get('condition_id')}: {_short(r['latency_check'])}"
         )
+    lines.append(
+        f"- Rows with Python warnings while rendering/processing: **{fail['n_warning_rows']}**."
+    )
+    for message, count in fail["warning_messages"][:10]:
+        lines.append(f"  - {count} × {_short(message)}")
     return lines + [""]
 
 

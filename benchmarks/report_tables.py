@@ -184,6 +184,8 @@ def fmt(value, digits: int = 2, std=None) -> str:
     if v is None:
         return "–"
     text = f"{v:.{digits}f}"
+    if float(text) == 0.0:
+        text = f"{0.0:.{digits}f}"  # no "-0.00"
     s = num(std)
     return f"{text} ± {s:.{digits}f}" if s is not None else text
 

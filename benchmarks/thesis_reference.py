@@ -68,9 +68,14 @@ def load_thesis_tables() -> tuple[ThesisRow, ...]:
     return tuple(rows)
 
 
+def base_name(enhancer: str) -> str:
+    """The registry name without a sweep's version pin: ``"eb@1"`` -> ``"eb"``."""
+    return str(enhancer).split("@", 1)[0].strip().lower()
+
+
 def thesis_system(enhancer: str) -> str | None:
-    """The thesis system our enhancer reproduces (``"eb-ss"`` -> ``"EB-SS"``), or None."""
-    return THESIS_SYSTEMS.get(str(enhancer).lower())
+    """The thesis system our enhancer reproduces (``"eb-ss"``, ``"eb-ss@1"`` -> ``"EB-SS"``)."""
+    return THESIS_SYSTEMS.get(base_name(enhancer))
 
 
 def thesis_row(enhancer: str, noise: str, snr_in_db: float) -> ThesisRow | None:

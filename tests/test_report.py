@@ -187,3 +187,17 @@ def test_thesis_loader_rows_and_headline():
     assert not T.is_thesis_condition(
         {"rt60_s": 0.3, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "wind"}
     )
+
+
+def test_versioned_names_warnings_and_negative_zero(tmp_path):
+    rows = [
+        _row("eb-ss@1", "babble", snr, warnings="UserWarning: noise 'babble' synthesized")
+        for snr in (0, 5)
+    ]
+    rows.append(_row("passthrough", "babble", 0, snr_i_db=-1e-12))
+    write_report(rows, tmp_path)
+    text = (tmp_path / "report" / "summary.md").read_text()
+    assert "### EB-SS (`eb-ss@1`), babble — thesis table 7.7" in text
+    assert "**Headline (EB-SS average SNR-I, babble):**" in text
+    assert "2 × UserWarning: noise 'babble' synthesized" in text
+    assert "-0.00" not in text
