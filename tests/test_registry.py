@@ -110,7 +110,7 @@ def test_default_params_then_overrides(toy_names):
     assert make("toy-loud").params.gain == 2.0
     assert make("toy-loud", gain=3.0).params.gain == 3.0
     # Registered in-process from a module outside this distribution: source is that module.
-    assert next(r for r in describe() if r["name"] == "toy-loud")["source"] == "_toy_enhancers"
+    assert registry.get_spec("toy-loud").source == "_toy_enhancers"
 
 
 def test_unknown_param_is_parameter_error():
