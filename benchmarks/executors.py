@@ -55,17 +55,22 @@ class LocalExecutor:
 
     Processes are started with ``forkserver`` (not ``fork``): forking a driver that runs
     threads (the progress bar's monitor) can deadlock a child on a lock held mid-fork.
+    ``preload`` names modules the fork server imports once, so workers start warm.
     At most ``2 * workers`` tasks are submitted ahead, so a kill loses little and memory
     stays flat on large sweeps.
     """
 
     name = "local"
 
-    def __init__(self, workers: int | None = None):
+    def __init__(self, workers: int | None = None, *, preload: Sequence[str] = ()):
         self.workers = _check_workers(workers)
+        self.preload = tuple(preload)
 
     def run(self, fn, tasks) -> Iterator[tuple[Any, Any]]:
         ctx = multiprocessing.get_context("forkserver")
+        if self.preload:
+            # Import the heavy modules once in the fork server; every worker forks warm.
+            ctx.set_forkserver_preload(list(self.preload))
         pending = list(tasks)[::-1]
         running: dict[Any, Any] = {}
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
@@ -161,11 +166,17 @@ def _check_workers(workers: int | None) -> int:
     return workers
 
 
-def make_executor(executor: str = "local", *, workers: int | None = None, scheduler: str | None = None):
+def make_executor(
+    executor: str = "local",
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    preload: Sequence[str] = (),
+):
     """The executor called ``executor`` (``"local"`` or ``"dask"``).
 
     ``local`` with one worker runs in this process (:class:`SerialExecutor`).  ``scheduler``
-    is only meaningful with ``dask``.
+    is only meaningful with ``dask``; ``preload`` only with a local pool.
     """
     if executor not in EXECUTORS:
         raise ParameterError("executor", executor, "one of " + ", ".join(map(repr, EXECUTORS)))
@@ -173,5 +184,5 @@ def make_executor(executor: str = "local", *, workers: int | None = None, schedu
         if scheduler:
             raise ParameterError("scheduler", scheduler, "no scheduler with the local executor (use --executor dask)")
         n = _check_workers(workers)
-        return SerialExecutor() if n == 1 else LocalExecutor(n)
+        return SerialExecutor() if n == 1 else LocalExecutor(n, preload=preload)
     return DaskExecutor(workers, scheduler)

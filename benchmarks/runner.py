@@ -1,12 +1,13 @@
 """Running a sweep: split it into units, run them on an executor, store rows as units finish.
 
-Unit of work = one condition (scene x noise x SNR x seed) and the enhancers still missing
-for it.  :func:`run_unit` is a pure function of its :class:`UnitTask` (condition,
+A condition (scene x noise x SNR x seed) and the enhancers still missing for it is a
+:class:`ConditionTask`; :func:`run_condition` is a pure function of it (condition,
 enhancer specs, data directory) -> rows, so any executor gives the same numbers.  Inside
-a worker process, the rendered scene of a geometry group (everything but the SNR) is
-kept in a small cache: the conditions of a group are adjacent in the sweep's order, so a
-worker renders each geometry once and only re-mixes it per SNR; input metrics are
-computed once per mixture, then each enhancer is run and measured.
+a worker process the rendered scene of a geometry group (everything but the SNR) is kept
+in a small cache, so a group is rendered once and only re-mixed per SNR; input metrics
+are computed once per mixture, then each enhancer is run and measured.  A unit of work
+(:class:`UnitTask`) is one condition, or a whole geometry group when there are enough
+groups to keep every worker busy (:func:`plan_units`).
 
 The driver (:func:`run_sweep`) is the only process that writes the store: one
 transaction per finished unit, so ``kill -9`` loses at most the units in flight and a
@@ -15,6 +16,7 @@ rerun computes only what is missing.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import socket
@@ -34,6 +36,9 @@ from benchmarks.sweep import Condition, Sweep, load_sweep
 from scenesim.errors import ParameterError
 from scenesim.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_choice
+
+WORKER_PRELOAD = ("benchmarks.runner", "benchmarks.evaluate", "data_recipes", "enhancers.registry", "scenesim.scene")
+"""Modules a local pool's fork server imports once, so its workers start warm."""
 
 # Condition columns every row of a unit carries (the store's names).
 _CONDITION_COLUMNS = (
@@ -64,8 +69,8 @@ class EnhancerSpec:
 
 
 @dataclass(frozen=True)
-class UnitTask:
-    """One unit of work: a condition and the enhancers to run on it (picklable, small)."""
+class ConditionTask:
+    """One condition and the enhancers still to run on it (picklable, small)."""
 
     condition_json: str
     enhancers: tuple[EnhancerSpec, ...]
@@ -77,6 +82,16 @@ class UnitTask:
 
 
 @dataclass(frozen=True)
+class UnitTask:
+    """One unit of work for an executor: one condition, or every condition of a geometry group."""
+
+    conditions: tuple[ConditionTask, ...]
+
+    def __len__(self) -> int:
+        return len(self.conditions)
+
+
+@dataclass(frozen=True)
 class RunSummary:
     """What :func:`run_sweep` did."""
 
@@ -84,7 +99,7 @@ class RunSummary:
     store_path: Path
     run_id: str
     n_conditions: int
-    n_units: int
+    n_computed: int
     n_skipped: int
     n_rows: int
     n_errors: int
@@ -94,7 +109,7 @@ class RunSummary:
 
     def line(self) -> str:
         return (
-            f"{self.n_conditions} conditions: {self.n_units} computed, {self.n_skipped} already "
+            f"{self.n_conditions} conditions: {self.n_computed} computed, {self.n_skipped} already "
             f"stored; {self.n_rows} rows written ({self.n_errors} with status 'error') "
             f"in {self.wall_s:.1f} s"
         )
@@ -188,8 +203,13 @@ def build_enhancer(spec: EnhancerSpec, cond: Condition):
     return with_geometry(make(spec.name, **spec.params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
 
 
-def run_unit(task: UnitTask) -> list[dict[str, Any]]:
-    """Compute the rows of one unit: render (or reuse) the scene, mix, measure every enhancer.
+def run_unit(unit: UnitTask) -> list[list[dict[str, Any]]]:
+    """The rows of every condition of a unit (one list per condition, in the unit's order)."""
+    return [run_condition(task) for task in unit.conditions]
+
+
+def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
+    """Compute the rows of one condition: render (or reuse) the scene, mix, measure every enhancer.
 
     Never raises for a problem with the condition: a failure to render or to build an
     enhancer gives rows with ``status='error'`` and the reason in ``error``.
@@ -199,12 +219,8 @@ def run_unit(task: UnitTask) -> list[dict[str, Any]]:
     cond = task.condition
     worker = f"{socket.gethostname()}:{os.getpid()}"
     base = {
-        "condition_id": cond.id,
-        "snr_in_db": cond.snr_db,
-        **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
-        "group_id": cond.group_id,
-        "condition_json": cond.to_json(),
-        "scenesim_version": package_versions(("scenesim",))["scenesim"],
+        **_condition_columns(cond),
+        "scenesim_version": _scenesim_version(),
         "worker": worker,
     }
     rows: list[dict[str, Any]] = []
@@ -238,6 +254,11 @@ def run_unit(task: UnitTask) -> list[dict[str, Any]]:
     return rows
 
 
+@functools.lru_cache(maxsize=1)
+def _scenesim_version() -> str | None:
+    return package_versions(("scenesim",))["scenesim"]
+
+
 def _exc_text(exc: BaseException) -> str:
     tb = traceback.extract_tb(exc.__traceback__)
     where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name})" if tb else ""
@@ -247,12 +268,12 @@ def _exc_text(exc: BaseException) -> str:
 # -- the driver side ---------------------------------------------------------------------
 
 
-def plan_units(
+def plan_conditions(
     sweep: Sweep,
     conditions: Sequence[Condition],
     done: set[tuple[str, str]],
     data_dir: str | None,
-) -> list[UnitTask]:
+) -> list[ConditionTask]:
     """One task per condition that misses at least one enhancer's row, in sweep order."""
     specs = [
         EnhancerSpec(name, json.dumps(dict(sweep.enhancer_params.get(name, {})), sort_keys=True))
@@ -262,8 +283,24 @@ def plan_units(
     for cond in conditions:
         missing = tuple(s for s in specs if (cond.id, s.name) not in done)
         if missing:
-            tasks.append(UnitTask(cond.to_json(), missing, data_dir))
+            tasks.append(ConditionTask(cond.to_json(), missing, data_dir))
     return tasks
+
+
+def plan_units(tasks: Sequence[ConditionTask], *, workers: int) -> list[UnitTask]:
+    """Group condition tasks into units of work.
+
+    With enough geometry groups to keep every worker busy (>= 4 per worker), a unit is a
+    whole group: its scene is rendered once, on one worker.  Otherwise each condition is
+    a unit (better balance; a group's render may then be repeated on another worker, which
+    is cheap next to the metrics).
+    """
+    groups: dict[str, list[ConditionTask]] = {}
+    for t in tasks:
+        groups.setdefault(t.condition.group_id, []).append(t)
+    if workers > 1 and len(groups) >= 4 * workers:
+        return [UnitTask(tuple(g)) for g in groups.values()]
+    return [UnitTask((t,)) for t in tasks]
 
 
 def run_sweep(
@@ -324,7 +361,7 @@ def run_sweep(
     t_start = time.perf_counter()
     with ResultStore.open(out_dir) as store:
         done = store.done_keys(include_errors=not retry_errors)
-        tasks = plan_units(sweep, conditions, done, data_dir)
+        tasks = plan_conditions(sweep, conditions, done, data_dir)
         _warn_changed_params(store, sweep, conditions, done)
         run_id = store.start_run(
             sweep=sweep.name,
@@ -341,18 +378,20 @@ def run_sweep(
         status = "failed"
         try:
             if tasks:
-                ex = make_executor(executor, workers=workers, scheduler=scheduler)
+                ex = make_executor(executor, workers=workers, scheduler=scheduler, preload=WORKER_PRELOAD)
                 try:
+                    units = plan_units(tasks, workers=ex.workers or 1)
                     with _progress(len(tasks), sweep.name, enabled=progress) as bar:
-                        for task, outcome in ex.run(run_unit, tasks):
-                            rows = _rows_of(task, outcome, run_id)
-                            n_rows += store.write_rows(rows)
-                            n_errors += sum(r.get("status") != "ok" for r in rows)
-                            for r in rows:
-                                for note in (r.get("warnings") or "").split("; "):
-                                    if note:
-                                        notes[note] = None
-                            bar.update(1)
+                        for unit, outcome in ex.run(run_unit, units):
+                            for rows in _rows_of(unit, outcome, run_id):
+                                # one transaction per condition: a kill never leaves half of one
+                                n_rows += store.write_rows(rows)
+                                n_errors += sum(r.get("status") != "ok" for r in rows)
+                                for r in rows:
+                                    for note in (r.get("warnings") or "").split("; "):
+                                        if note:
+                                            notes[note] = None
+                            bar.update(len(unit))
                             if n_errors:
                                 bar.set_postfix(errors=n_errors, refresh=False)
                 finally:
@@ -372,7 +411,7 @@ def run_sweep(
         store_path=store.path,
         run_id=run_id,
         n_conditions=len(conditions),
-        n_units=len(tasks),
+        n_computed=len(tasks),
         n_skipped=len(conditions) - len(tasks),
         n_rows=n_rows,
         n_errors=n_errors,
@@ -382,28 +421,32 @@ def run_sweep(
     )
 
 
-def _rows_of(task: UnitTask, outcome: Any, run_id: str) -> list[dict[str, Any]]:
-    """Rows from a unit's outcome; an exception (e.g. Dask's KilledWorker) becomes error rows."""
+def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, Any]]]:
+    """Rows per condition from a unit's outcome; an exception (e.g. Dask's KilledWorker)
+    becomes error rows for every condition of the unit."""
     if isinstance(outcome, BaseException):
-        cond = task.condition
-        rows = [
-            {
-                "condition_id": cond.id,
-                "enhancer": s.name,
-                "snr_in_db": cond.snr_db,
-                **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
-                "group_id": cond.group_id,
-                "condition_json": cond.to_json(),
-                "status": "error",
-                "error": f"unit failed: {_exc_text(outcome)}",
-            }
-            for s in task.enhancers
-        ]
+        per_condition = [_error_rows(task, f"unit failed: {_exc_text(outcome)}") for task in unit.conditions]
     else:
-        rows = list(outcome)
-    for row in rows:
-        row["run_id"] = run_id
-    return rows
+        per_condition = [list(rows) for rows in outcome]
+    for rows in per_condition:
+        for row in rows:
+            row["run_id"] = run_id
+    return per_condition
+
+
+def _error_rows(task: ConditionTask, message: str) -> list[dict[str, Any]]:
+    cond = task.condition
+    return [{**_condition_columns(cond), "enhancer": s.name, "status": "error", "error": message} for s in task.enhancers]
+
+
+def _condition_columns(cond: Condition) -> dict[str, Any]:
+    return {
+        "condition_id": cond.id,
+        "snr_in_db": cond.snr_db,
+        **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
+        "group_id": cond.group_id,
+        "condition_json": cond.to_json(),
+    }
 
 
 def _warn_changed_params(store: ResultStore, sweep: Sweep, conditions, done) -> None:
@@ -490,10 +533,13 @@ def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str
 __all__ = [
     "EnhancerSpec",
     "RunSummary",
+    "ConditionTask",
     "UnitTask",
     "build_enhancer",
     "build_scene",
+    "plan_conditions",
     "plan_units",
+    "run_condition",
     "render_group",
     "run_sweep",
     "run_unit",

@@ -8,7 +8,16 @@ import numpy as np
 import pytest
 
 from benchmarks import runner
-from benchmarks.runner import EnhancerSpec, UnitTask, plan_units, run_sweep, run_unit
+from benchmarks.runner import (
+    ConditionTask,
+    EnhancerSpec,
+    UnitTask,
+    plan_conditions,
+    plan_units,
+    run_condition,
+    run_sweep,
+    run_unit,
+)
 from benchmarks.store import ResultStore
 from benchmarks.sweep import parse_sweep
 from scenesim.errors import ParameterError
@@ -20,7 +29,7 @@ name = "tiny"
 
 [axes]
 enhancers = ["passthrough", "ss"]
-noise = ["babble"]
+noise = ["wind"]
 snr_db = [0, 10]
 
 [fixed]
@@ -38,7 +47,7 @@ def test_plan_units_skips_done_and_keeps_only_missing_enhancers():
     sweep = parse_sweep(TINY)
     conds = sweep.conditions()
     done = {(conds[0].id, "passthrough"), (conds[0].id, "ss"), (conds[1].id, "ss")}
-    tasks = plan_units(sweep, conds, done, None)
+    tasks = plan_conditions(sweep, conds, done, None)
     assert len(tasks) == 1
     assert tasks[0].condition == conds[1]
     assert [s.name for s in tasks[0].enhancers] == ["passthrough"]
@@ -50,48 +59,48 @@ def test_run_unit_is_pure_and_the_render_cache_changes_nothing():
     Oracle: the function's own first result (determinism, to 1e-12 relative)."""
     sweep = parse_sweep(TINY)
     cond = sweep.conditions()[0]
-    task = UnitTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss")))
+    task = ConditionTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss")))
     runner._IMAGES.clear()
-    first = run_unit(task)
+    first = run_condition(task)
     assert len(runner._IMAGES) == 1  # the geometry group stays cached for the next SNR
-    again = run_unit(task)  # from the cache
+    again = run_condition(task)  # from the cache
     runner._IMAGES.clear()
-    fresh = run_unit(task)  # rendered anew
+    fresh = run_condition(task)  # rendered anew
     assert [r["status"] for r in first] == ["ok", "ok"], [r["error"] for r in first]
     for a, b, c in zip(first, again, fresh):
         for m in METRICS:
             np.testing.assert_allclose([b[m], c[m]], [a[m], a[m]], rtol=1e-12, err_msg=m)
     row = first[0]
-    assert row["condition_id"] == cond.id and row["snr_in_db"] == 0.0 and row["noise"] == "babble"
-    assert row["speech_source"] == "artificial-voice" and row["noise_source"] == "synthetic:babble"
+    assert row["condition_id"] == cond.id and row["snr_in_db"] == 0.0 and row["noise"] == "wind"
+    assert row["speech_source"] == "artificial-voice" and row["noise_source"] == "synthetic:wind"
     assert json.loads(row["condition_json"])["snr_db"] == 0.0
     assert json.loads(first[1]["enhancer_spec"])["name"] == "ss"
 
 
 def test_a_condition_that_cannot_be_rendered_gives_error_rows_not_a_crash():
-    sweep = parse_sweep(TINY.replace('noise = ["babble"]', 'noise = ["no-such-noise"]'))
-    task = UnitTask(sweep.conditions()[0].to_json(), (EnhancerSpec("passthrough"),))
-    (row,) = run_unit(task)
+    sweep = parse_sweep(TINY.replace('noise = ["wind"]', 'noise = ["no-such-noise"]'))
+    task = ConditionTask(sweep.conditions()[0].to_json(), (EnhancerSpec("passthrough"),))
+    (row,) = run_condition(task)
     assert row["status"] == "error" and "no-such-noise" in row["error"]
 
 
 def test_an_enhancer_that_cannot_be_built_gives_an_error_row():
     cond = parse_sweep(TINY).conditions()[0]
-    task = UnitTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss", json.dumps({"nonsense": 1}))))
-    ok, bad = run_unit(task)
+    task = ConditionTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss", json.dumps({"nonsense": 1}))))
+    ok, bad = run_condition(task)
     assert ok["status"] == "ok" and bad["status"] == "error" and "nonsense" in bad["error"]
 
 
 def test_resume_computes_only_what_is_missing(tmp_path):
     sweep = parse_sweep(TINY)
     first = run_sweep(sweep, tmp_path, workers=1, limit=1, report=False, progress=False)
-    assert (first.n_conditions, first.n_units, first.n_rows) == (1, 1, 2)
+    assert (first.n_conditions, first.n_computed, first.n_rows) == (1, 1, 2)
     with ResultStore.open(tmp_path) as store:
         before = {(r["condition_id"], r["enhancer"]): r["created_at"] for r in store.rows()}
     second = run_sweep(sweep, tmp_path, workers=1, report=False, progress=False)
-    assert (second.n_conditions, second.n_units, second.n_skipped, second.n_rows) == (2, 1, 1, 2)
+    assert (second.n_conditions, second.n_computed, second.n_skipped, second.n_rows) == (2, 1, 1, 2)
     third = run_sweep(sweep, tmp_path, workers=1, report=False, progress=False)
-    assert (third.n_units, third.n_rows) == (0, 0)
+    assert (third.n_computed, third.n_rows) == (0, 0)
     with ResultStore.open(tmp_path) as store:
         rows = store.rows()
         runs = store.runs()
@@ -138,3 +147,16 @@ def test_seed_offsets_the_seeds_and_limit_is_checked(tmp_path):
         run_sweep(parse_sweep(TINY), tmp_path, limit=0, report=False)
     with pytest.raises(ParameterError, match="executor"):
         run_sweep(parse_sweep(TINY), tmp_path, executor="mpi", report=False)
+
+
+def test_units_are_whole_geometry_groups_only_when_there_are_enough_groups():
+    sweep = parse_sweep(TINY.replace('snr_db = [0, 10]', 'snr_db = [0, 10]\nspeech_az_deg = [0, 30, 60, 90, 120, 150, 180, 210]'))
+    tasks = plan_conditions(sweep, sweep.conditions(), set(), None)
+    assert len(tasks) == 16
+    per_group = plan_units(tasks, workers=2)  # 8 groups >= 4 per worker: one unit per group
+    assert [len(u) for u in per_group] == [2] * 8
+    assert all(len({t.condition.group_id for t in u.conditions}) == 1 for u in per_group)
+    assert [len(u) for u in plan_units(tasks, workers=3)] == [1] * 16  # too few groups for 3
+    assert [len(u) for u in plan_units(tasks, workers=1)] == [1] * 16  # serial: finest grain
+    rows = run_unit(UnitTask(tuple(tasks[:2])))
+    assert [[r["snr_in_db"] for r in per_cond] for per_cond in rows] == [[0.0, 0.0], [10.0, 10.0]]
