@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.signal import oaconvolve
 
 __all__ = [
     "DifferentialFilters",
@@ -164,11 +163,7 @@ def branch_signals(ext: np.ndarray, filters: DifferentialFilters, n_out: int) ->
     start = hist - L
     bulk = ext[:, start:start + n_out]
     seg = ext[:, hist - (len(h) - 1):]
-    if n_out >= 4096 and len(h) > 8:
-        # long blocks: overlap-add FFT convolution (same result to ~1e-16 relative, several x faster)
-        d = oaconvolve(seg, h[None, :], mode="valid", axes=-1)
-        d1, d2 = d[0], d[1]
-    else:
-        d1 = np.convolve(seg[0], h, mode="valid")
-        d2 = np.convolve(seg[1], h, mode="valid")
+    # direct convolution: for ~34 taps it beats FFT methods (measured 3 ms vs 10-14 ms on 10 s)
+    d1 = np.convolve(seg[0], h, mode="valid")
+    d2 = np.convolve(seg[1], h, mode="valid")
     return bulk[0] - d2, bulk[1] - d1, bulk[0]

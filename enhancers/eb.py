@@ -21,6 +21,7 @@ can use a centred windowed sinc; whole-number ``T fs`` uses exact shifts).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -78,8 +79,8 @@ class _DifferentialBase(Enhancer):
 
     Params: ClassVar[type[Params]] = _DifferentialParams
 
-    @property
-    def tags(self) -> Tags:
+    @functools.cached_property
+    def tags(self) -> Tags:  # params are frozen, so the tags never change (cached: read per block)
         return Tags(channels_in=2, channels_out=1, needs_geometry=True, streaming=True,
                     latency_samples=int(self.params.fd_half_len))
 

@@ -76,6 +76,8 @@ class FilterBank:
     def __post_init__(self):
         n = check_int("frame_len", self.frame_len, minimum=2)
         r = check_int("hop", self.hop, minimum=1, maximum=n)
+        if not isinstance(self.window, str):  # get_window would take a float as a Kaiser beta
+            raise ParameterError("window", self.window, "a scipy.signal.get_window name (str)")
         try:
             wa = np.asarray(get_window(self.window, n, fftbins=True), dtype=float)
         except (ValueError, TypeError):

@@ -121,8 +121,8 @@ class _SubtractionBase(Enhancer):
         p = self.params
         return _filterbank(p.frame_len, p.hop, p.window)
 
-    @property
-    def tags(self) -> Tags:
+    @functools.cached_property
+    def tags(self) -> Tags:  # params are frozen, so the tags never change (cached: read per block)
         return Tags(channels_in=1, channels_out=1, streaming=True, latency_samples=self.params.frame_len - 1)
 
     # subclasses: tracker state and step (S (F, K) -> P, Pn, state)

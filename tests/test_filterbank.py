@@ -83,7 +83,7 @@ def test_frame_len_for_16khz_is_256():
 
 
 @pytest.mark.parametrize("kwargs,name", [({"hop": 0}, "hop"), ({"frame_len": 1}, "frame_len"),
-                                         ({"window": "nope"}, "window"), ({"hop": 300}, "hop")])
+                                         ({"window": "nope"}, "window"), ({"window": 3.0}, "window"), ({"hop": 300}, "hop")])
 def test_bad_configuration_names_the_parameter(kwargs, name):
     with pytest.raises(ParameterError, match=name):
         FilterBank(**kwargs)
