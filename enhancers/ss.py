@@ -187,8 +187,11 @@ class SpectralSubtraction(_SubtractionBase):
     calibrated ``omin`` compensates.  ``Params.thesis()`` is the thesis' listed preset
     (D = 200 frames, omin = 0.99).
 
-    ``trace``: ``"gain"`` and ``"noise_psd"``, both ``(n_frames, n_bins)`` with
-    ``n_frames = n // hop``.  Output latency ``frame_len - 1`` samples.
+    ``trace``: ``"gain"`` (``G``) and ``"noise_psd"`` (``Pn`` in periodogram units, ``|X|^2``
+    of the windowed frame), both ``(n_frames, n_bins)`` with ``n_frames = n // hop``.
+    Output latency ``frame_len - 1`` samples (frame sizes are in samples because ``tags``
+    cannot depend on ``fs``; use :func:`enhancers.filterbank.frame_len_for` for 16 ms at
+    another rate).
     """
 
     name: ClassVar[str] = "ss"
