@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import time
 import traceback
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -51,6 +52,7 @@ ROW_COLUMNS: dict[str, str] = {
     "status": "TEXT",
     "error": "TEXT",
     "snr_method": "TEXT",
+    "snr_cross_ratio": "REAL",
     "snr_out_db": "REAL",
     "snr_i_db": "REAL",
     **{k: v for k, v in INPUT_COLUMNS.items() if k != "input_error"},
@@ -78,6 +80,8 @@ ROW_COLUMNS: dict[str, str] = {
 TRACE_MAX_POINTS = 2000
 #: Lag search half-width for the latency check, in seconds beyond the declared latency.
 LAG_SEARCH_S = 0.032
+#: ``|2 <s_out, n_out>| / P(s_out + n_out)`` above this makes the output SNR suspect.
+CROSS_WARN_RATIO = 0.2
 
 
 def _exc_text(exc: BaseException) -> str:
@@ -268,6 +272,9 @@ def evaluate_enhancer(
         (aligned) samples -- equal to ``snr_in_db_measured`` when the latency is 0.
         The other ``*_out`` metrics compare the first output channel with the reference
         after removing the declared latency; ``*_i`` are ``out - in``.
+        ``snr_cross_ratio = 2 <s_out, n_out> / P(s_out + n_out)`` is a check on the SNR
+        itself: above :data:`CROSS_WARN_RATIO` in magnitude a ``RuntimeWarning`` says that
+        ``snr_out_db`` is unreliable (the runner records warnings in the row).
     """
     row: dict[str, Any] = dict.fromkeys(ROW_COLUMNS)
     row["enhancer"] = getattr(enhancer, "name", type(enhancer).__name__)
@@ -338,6 +345,21 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row["snr_out_db"] = _try(errors, "snr_out", M.snr_db, s_al, n_al)
         snr_in = _try(errors, "snr_in", M.snr_db, s0[:m], n0[:m])
         row["snr_i_db"] = _delta(row["snr_out_db"], snr_in)
+        # Independent speech and noise stay nearly uncorrelated through a fixed or slowly
+        # varying filter.  A large cross term means the components were scaled up where
+        # they cancel (e.g. a gain > 1 on bins where |S + N| << |S|, |N|); their powers,
+        # hence the output SNR, then describe the gain mask more than the output.
+        p_y = float(np.mean((s_al + n_al) ** 2))
+        cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
+        row["snr_cross_ratio"] = cross
+        if abs(cross) > CROSS_WARN_RATIO:
+            warnings.warn(
+                f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
+                f"correlated: 2<s_out, n_out> = {cross:+.0%} of the output power; "
+                "snr_out_db is unreliable for this row",
+                RuntimeWarning,
+                stacklevel=2,
+            )
 
     # Latency check on the speech component (cleaner than the noisy output) when we have it.
     probe = s_out[0] if s_out is not None else y[0]

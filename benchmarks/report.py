@@ -28,6 +28,7 @@ from typing import Any
 
 from benchmarks import figures
 from benchmarks import thesis_reference as T
+from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.report_tables import (
     CONDITION_KEYS,
     METRIC_FIELDS,
@@ -36,6 +37,7 @@ from benchmarks.report_tables import (
     fmt,
     markdown_table,
     normalise_rows,
+    num,
     sweep_slice,
     write_csv,
 )
@@ -157,11 +159,13 @@ def failures(rows: Sequence[dict]) -> dict[str, Any]:
                 examples.setdefault(label, part)
     latency = [r for r in rows if r.get("latency_check")]
     warned = [r for r in rows if r.get("warnings")]
+    suspect = [r for r in rows if abs(num(r.get("snr_cross_ratio")) or 0.0) > CROSS_WARN_RATIO]
     warning_messages = Counter(
         part for r in warned for part in str(r["warnings"]).split("; ") if part.strip()
     )
     return {
         "n_warning_rows": len(warned),
+        "snr_suspect": suspect,
         "warning_messages": warning_messages.most_common(),
         "n_error_rows": len(errors),
         "error_messages": by_message.most_common(),
@@ -352,6 +356,13 @@ def _failures_section(fail: Mapping[str, Any], n_rows: int) -> list[str]:
         lines.append(
             f"  - {r.get('enhancer')} / {r.get('condition_id')}: {_short(r['latency_check'])}"
         )
+    suspect = fail["snr_suspect"]
+    lines.append(
+        f"- Rows whose output SNR is suspect (|2<s_out, n_out>| > {CROSS_WARN_RATIO:g} of the "
+        f"output power): **{len(suspect)}**."
+    )
+    for name, count in Counter(str(r.get("enhancer")) for r in suspect).most_common():
+        lines.append(f"  - {name}: {count} rows")
     lines.append(
         f"- Rows with Python warnings while rendering/processing: **{fail['n_warning_rows']}**."
     )

@@ -300,3 +300,14 @@ def test_real_scene_and_builtin_enhancers_give_complete_rows():
     assert rows["eb"]["snr_i_db"] > 10.0
     assert list(json.loads(rows["eb"]["trace_json"])) == ["beta"]
     assert list(json.loads(rows["eb-ss"]["trace_json"])) == ["eb.beta"]
+
+
+def test_correlated_output_components_are_flagged(scene):
+    # Oracle: with noise = -0.5 speech, 2<s, n> / P(s + n) = -1 / 0.25 = -4 exactly, for
+    # any gain; such an SNR describes the components, not the output, hence the warning.
+    s = scene.speech_image
+    bad = StandInScene(s + (-0.5 * s), s, -0.5 * s, scene.reference, FS, 6.02)
+    with pytest.warns(RuntimeWarning, match="snr_out_db is unreliable"):
+        row = evaluate_enhancer(FixedGain(gain=2.0), bad)
+    np.testing.assert_allclose(row["snr_cross_ratio"], -4.0, rtol=1e-12)
+    assert row["status"] == "ok"

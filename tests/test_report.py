@@ -194,10 +194,11 @@ def test_versioned_names_warnings_and_negative_zero(tmp_path):
         _row("eb-ss@1", "babble", snr, warnings="UserWarning: noise 'babble' synthesized")
         for snr in (0, 5)
     ]
-    rows.append(_row("passthrough", "babble", 0, snr_i_db=-1e-12))
+    rows.append(_row("passthrough", "babble", 0, snr_i_db=-1e-12, snr_cross_ratio=-0.39))
     write_report(rows, tmp_path)
     text = (tmp_path / "report" / "summary.md").read_text()
     assert "### EB-SS (`eb-ss@1`), babble — thesis table 7.7" in text
     assert "**Headline (EB-SS average SNR-I, babble):**" in text
     assert "2 × UserWarning: noise 'babble' synthesized" in text
     assert "-0.00" not in text
+    assert "output power): **1**." in text and "  - passthrough: 1 rows" in text
