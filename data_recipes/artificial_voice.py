@@ -171,9 +171,11 @@ def _synthesize_raw(n: int, fs: int, rng: np.random.Generator, talker: Talker) -
     source += 0.02 * rng.standard_normal(n) * flow  # breathiness during the open phase
     voiced = source * np.interp(t, t_frames, tracks["av"])
 
-    # Formant cascade, time-varying: each Hann-windowed 10 ms frame of the source is
-    # filtered by that frame's resonators and the outputs are overlap-added.
-    out = _formant_filter(voiced, np.minimum(tracks["formants"], 0.45 * fs), hop, fs)
+    # Formant cascade, time-varying: each Hann-windowed 20 ms frame of the source (hop
+    # 10 ms; the trajectories are smoothed over 40 ms) is filtered by that frame's
+    # resonators and the outputs are overlap-added.
+    formants = np.minimum(tracks["formants"], 0.45 * fs)[::2]
+    out = _formant_filter(voiced, formants, 2 * hop, fs)
 
     # Unvoiced: one band-passed noise stream per fricative class, gated by its track.
     for name, (lo, hi) in _FRICATIVES.items():
@@ -293,8 +295,6 @@ def _formant_filter(x: np.ndarray, formants: np.ndarray, hop: int, fs: int) -> n
     window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(length) / length)
     n_frames = n // hop + 1
     padded = np.concatenate([np.zeros(hop), x, np.zeros(2 * length)])
-    z1 = np.exp(-2j * np.pi * np.fft.rfftfreq(n_fft))  # z^-1 on the unit circle
-    z2 = z1**2
     out = np.zeros((n_frames + n_blocks + 1, hop))  # output in blocks of one hop
     r = np.exp(-np.pi * _BANDWIDTHS_HZ / fs)
     for c0 in range(0, n_frames, 512):  # chunks bound the memory of the (frames, bins) arrays
@@ -302,9 +302,16 @@ def _formant_filter(x: np.ndarray, formants: np.ndarray, hop: int, fs: int) -> n
         idx = ks[:, None] * hop + np.arange(length)[None, :]
         frames = padded[idx] * window
         a1 = -2.0 * r * np.cos(2.0 * np.pi * formants[ks] / fs)  # (frames, n_formants)
-        spec = np.fft.rfft(frames, n_fft)
+        # Denominator polynomial of the whole cascade (degree 2 n_formants) per frame;
+        # its values on the unit circle are one real FFT.
+        den = np.zeros((ks.size, 2 * a1.shape[1] + 1))
+        den[:, 0] = 1.0
         for i in range(a1.shape[1]):
-            spec *= (1.0 + a1[:, i:i + 1] + r[i] ** 2) / (1.0 + a1[:, i:i + 1] * z1 + r[i] ** 2 * z2)
+            prev = den.copy()
+            den[:, 1:] += a1[:, i:i + 1] * prev[:, :-1]
+            den[:, 2:] += r[i] ** 2 * prev[:, :-2]
+        dc_gain = np.prod(1.0 + a1 + r**2, axis=1)  # unity gain at DC per resonator
+        spec = np.fft.rfft(frames, n_fft) * (dc_gain[:, None] / np.fft.rfft(den, n_fft))
         y = np.fft.irfft(spec, n_fft).reshape(ks.size, n_blocks, hop)
         for blk in range(n_blocks):
             out[ks + blk] += y[:, blk]
