@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
@@ -78,6 +78,7 @@ class ShoeBox:
 
     dims_m: tuple[float, float, float]
     absorption: float | tuple[float, ...] | None = None
+    _: KW_ONLY
     rt60_s: float | None = None
     rt60_method: str = "sabine"
     c: float = 343.0
