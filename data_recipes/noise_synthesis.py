@@ -7,6 +7,7 @@ All randomness comes from the ``rng`` argument, so a seed fixes the output.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -23,6 +24,8 @@ NOISE_RMS = 0.1
 
 #: Number of simultaneous talkers in synthesized babble.
 BABBLE_TALKERS = 6
+#: Seconds of speech per artificial talker in the built-in babble bank.
+BABBLE_BANK_S = 30.0
 
 #: Mains frequency (Hz) of the factory hum family (European grid, as in NOISEX-92 factory).
 MAINS_HZ = 50.0
@@ -229,20 +232,15 @@ def _babble(n: int, fs: int, rng: np.random.Generator, pool: Sequence[SpeechPool
     Each voice is a stretch of one talker's speech (looped if short) starting at a
     random offset, scaled to a random level within +-3 dB; distinct talkers are used
     whenever the pool has enough of them.  With no pool the six built-in artificial
-    talkers speak with their own seeds.  The long-term spectrum is that of speech,
-    with the 4 Hz envelope modulation largely averaged out.
+    talkers speak from a fixed bank of :data:`BABBLE_BANK_S` seconds each (generated once
+    per process, like the single 235 s recording behind NOISEX-92 babble); the seed picks
+    offsets and levels.  The long-term spectrum is that of speech, with the 4 Hz
+    envelope modulation largely averaged out.
     """
+    if pool is None:
+        pool = _artificial_babble_bank(fs)
     x = np.zeros(n)
     parts = []
-    if pool is None:
-        for talker in TALKERS[:BABBLE_TALKERS]:
-            seed = int(rng.integers(2**31))
-            voice, _ = artificial_voice(n / fs + 0.5, fs=fs, seed=seed, talker=talker)
-            offset = int(rng.integers(0, int(0.5 * fs)))
-            gain = 10.0 ** (rng.uniform(-3, 3) / 20.0)
-            x += gain * voice[offset:offset + n]
-            parts.append(f"artificial-voice:{talker.name}:seed={seed}")
-        return x, tuple(parts)
     if not pool:
         raise ParameterError("speech_pool", pool, "at least one speech item for babble")
     for item in _pick_voices(pool, rng):
@@ -255,6 +253,17 @@ def _babble(n: int, fs: int, rng: np.random.Generator, pool: Sequence[SpeechPool
         x += gain * voice
         parts.append(f"{item.label}@{offset}")
     return x, tuple(parts)
+
+
+@functools.lru_cache(maxsize=4)
+def _artificial_babble_bank(fs: int) -> tuple[SpeechPoolItem, ...]:
+    """One :data:`BABBLE_BANK_S`-second clip per built-in talker (seed 1000 + index)."""
+    bank = []
+    for k, talker in enumerate(TALKERS):
+        voice, _ = artificial_voice(BABBLE_BANK_S, fs=fs, seed=1000 + k, talker=talker)
+        voice.setflags(write=False)
+        bank.append(SpeechPoolItem(talker.name, f"artificial-voice:{talker.name}:seed={1000 + k}", voice))
+    return tuple(bank)
 
 
 def _pick_voices(pool: Sequence[SpeechPoolItem], rng: np.random.Generator) -> list[SpeechPoolItem]:
