@@ -124,3 +124,26 @@ def test_directory_made_by_cmu_arctic_recipe_is_described_as_such(tmp_path):
     (tmp_path / "manifest.json").write_text(json.dumps({"recipe": "cmu-arctic", "files": []}))
     clip = open_data(tmp_path, fs=FS).speech(1.0, seed=0)
     assert clip.source == f"cmu-arctic:{tmp_path.resolve()}"
+
+
+def test_looping_crossfade_weights_sum_to_one():
+    # Oracle: complementary raised-cosine ramps sum to 1, so a looped constant stays constant.
+    from data_recipes.source import _loop
+
+    y = _loop(np.ones(1000), 3500, FS)
+    assert y.size >= 3500
+    np.testing.assert_allclose(y[:3500], 1.0, atol=1e-12)
+
+
+def test_bad_arguments_name_the_parameter(no_env):
+    ds = open_data(fs=FS)
+    with pytest.raises(ParameterError, match="duration_s"):
+        ds.speech(0.0, seed=0)
+    with pytest.raises(ParameterError, match="seed"):
+        ds.noise("wind", 1.0, seed=-1)
+    with pytest.raises(ParameterError, match="n_channels"):
+        ds.noise("wind", 1.0, seed=0, n_channels=0)
+    with pytest.raises(ParameterError, match="fs"):
+        open_data(fs=0)
+    with pytest.raises(DataError, match="does not exist"):
+        open_data("/nonexistent/scenesim-data", fs=FS)
