@@ -122,8 +122,8 @@ def artificial_voice(
     Returns
     -------
     x : ndarray, shape (n,)
-        ``n = round(duration_s * fs)`` samples, RMS :data:`OUTPUT_RMS`, starting and
-        ending with a short pause.
+        ``n = round(duration_s * fs)`` samples, RMS :data:`OUTPUT_RMS`, starting with a
+        0.1-0.3 s pause and cut at ``n`` (possibly inside an utterance).
     talker : Talker
         The talker used.
     """
