@@ -92,7 +92,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             continue
         names = _enhancers(sel)
         colours = _colours(names)
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.4))
         for name in names:
             agg = aggregate([r for r in sel if r["enhancer"] == name], ("snr_in_db",))
             xs = [a["snr_in_db"] for a in agg]
@@ -152,9 +152,10 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         ax2.set(
             xlabel="input SNR (dB)", ylabel="output PESQ (MOS-LQO)", title=f"output PESQ, {noise}"
         )
-        for ax in (ax1, ax2):
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7)
+        ax1.grid(True, alpha=0.3)
+        ax2.grid(True, alpha=0.3)
+        # One legend outside, from the PESQ panel (it has every line style).
+        ax2.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
         where = "thesis geometry" if at_thesis else _geo_text(geo)
         fig.suptitle(f"{noise}: ours solid, thesis dashed ({where})", fontsize=10)
         fig.tight_layout()

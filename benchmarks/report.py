@@ -301,7 +301,7 @@ def _conditions_section(cond: Sequence[dict]) -> list[str]:
     lines = [
         "## All conditions",
         "",
-        f"{len(cond)} conditions; every column in `conditions.csv`.",
+        f"{len(cond)} (system, condition) groups; every column in `conditions.csv`.",
         "",
     ]
     if not cond or len(cond) > MAX_MARKDOWN_CONDITIONS:
@@ -418,7 +418,10 @@ def write_report(
     fields = [f for f in METRIC_FIELDS if any(f in r for r in all_rows)]
     paths: list[Path] = []
 
-    cond = aggregate(ok, CONDITION_KEYS, fields)
+    cond = sorted(
+        aggregate(ok, CONDITION_KEYS, fields),
+        key=lambda r: (_rank(r["enhancer"]), str(r["enhancer"])),  # stable: keeps key order
+    )
     paths.append(
         write_csv(report_dir / "conditions.csv", cond, [*CONDITION_KEYS, "n", *_with_std(fields)])
     )
