@@ -13,7 +13,8 @@ The known differences are aligned before comparing:
 
 Remaining differences: its fractional delay uses a Hann window on the integer grid and a
 float32 sinc table (1/20 steps, linear interpolation) in float32 arithmetic; ours centres the
-window on the true delay in float64.  Agreement is then ~2e-3..4e-3 relative L2.
+window on the true delay in float64 (each accounts for about half of the residual).  Agreement
+is then 1e-3..4.2e-3 relative L2 (60 random rooms, orders 0..30, 8 and 16 kHz).
 """
 
 from __future__ import annotations

@@ -192,7 +192,9 @@ def calibrated_absorption(dims_m, rt60_s: float, c: float = 343.0) -> float:
     """Uniform absorption whose ISM RIR has a measured T30 within 1 % of ``rt60_s`` (cached).
 
     Iterates on ``x = -ln(1 - alpha)`` (RT60 is close to proportional to ``1/x``, Eyring), first by
-    the ratio ``T_measured / T_target``, then by secant steps on ``log T`` vs ``log x``.
+    the ratio ``T_measured / T_target``, then by secant steps on ``log T`` vs ``log x``, at most
+    :data:`CALIBRATION_MAX_ITER` RIRs.  If 1 % is not reached, the best absorption is returned when
+    it is within 5 %; otherwise the target is reported as unreachable.
 
     Raises
     ------
