@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -119,9 +120,9 @@ def prepare(name: str, dest: Path | str | None = None, **options) -> dict:
     ``noisex92`` (src, fs, min_duration_s).
     """
     recipe = get_recipe(name)
-    try:
-        return recipe.prepare(dest, **options)
-    except TypeError as exc:
-        if "unexpected keyword" in str(exc):
-            raise ParameterError("options", sorted(options), f"options accepted by {name!r}") from exc
-        raise
+    params = inspect.signature(recipe.prepare).parameters
+    allowed = [k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    for key in sorted(options):
+        if key not in allowed:
+            raise ParameterError(key, options[key], f"an option of recipe {name!r}: " + ", ".join(allowed))
+    return recipe.prepare(dest, **options)

@@ -43,3 +43,9 @@ def test_prepare_cmu_arctic_offline_is_a_clean_error(tmp_path, capsys):
 def test_unknown_recipe_is_reported(capsys):
     assert main(["data", "prepare", "nonesuch"]) == 2
     assert "recipe" in capsys.readouterr().err
+
+
+def test_option_the_recipe_does_not_take_is_named(tmp_path, capsys):
+    code = main(["data", "prepare", "artificial-voice", "--dest", str(tmp_path), "--talkers", "bdl"])
+    assert code == 2
+    assert "talkers" in capsys.readouterr().err
