@@ -197,16 +197,21 @@ def _factory(n: int, fs: int, rng: np.random.Generator):
     The PSD therefore shows lines at 50, 100, 150 ... Hz and 24.5, 49, 73.5 ... Hz over
     a -3 dB/oct floor, with broadband transients; it imitates NOISEX-92 ``factory1``.
     """
-    t = np.arange(n) / fs
-    tonal = np.zeros(n)
+    # Every line is a multiple of 0.5 Hz, so the tonal part repeats exactly every 2 s:
+    # compute one period and tile it.
+    period = int(round(2.0 * fs))
+    tp = np.arange(period) / fs
+    mains = np.zeros(period)
     for k in range(1, int(400 / MAINS_HZ) + 1):
-        tonal += np.sin(2 * np.pi * k * MAINS_HZ * t + rng.uniform(0, 2 * np.pi)) / k
+        mains += np.sin(2 * np.pi * k * MAINS_HZ * tp + rng.uniform(0, 2 * np.pi)) / k
+    t = np.arange(n) / fs
     load = 1.0 + 0.2 * np.sin(2 * np.pi * 0.3 * t + rng.uniform(0, 2 * np.pi))
-    machine = np.zeros(n)
+    machine = np.zeros(period)
     for k in range(1, int(1000 / MACHINE_HZ) + 1):
-        machine += np.sin(2 * np.pi * k * MACHINE_HZ * t + rng.uniform(0, 2 * np.pi)) / k
-    machine += 0.5 * np.sin(2 * np.pi * GEAR_TEETH * MACHINE_HZ * t + rng.uniform(0, 2 * np.pi))
-    tonal = tonal + 1.5 * machine * load
+        machine += np.sin(2 * np.pi * k * MACHINE_HZ * tp + rng.uniform(0, 2 * np.pi)) / k
+    machine += 0.5 * np.sin(2 * np.pi * GEAR_TEETH * MACHINE_HZ * tp + rng.uniform(0, 2 * np.pi))
+    reps = -(-n // period)
+    tonal = np.tile(mains, reps)[:n] + 1.5 * np.tile(machine, reps)[:n] * load
     pink, _ = _pink(n, fs, rng)
     pink *= 0.5 * np.std(tonal) / max(np.std(pink), 1e-12)
     hits = np.zeros(n)
