@@ -186,6 +186,11 @@ class Enhancer:
     Params: ClassVar[type[Params]] = Params
 
     def __init__(self, params: Params | None = None, **overrides: Any):
+        known = {f.name for f in dataclasses.fields(self.Params)}
+        unknown = sorted(set(overrides) - known)
+        if unknown:
+            allowed = ", ".join(sorted(known)) or "no parameters"
+            raise ParameterError(unknown[0], overrides[unknown[0]], f"one of {allowed}")
         if params is None:
             params = self.Params(**overrides)
         elif overrides:
