@@ -24,9 +24,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
 
 from benchmarks import thesis_reference as T  # noqa: E402
-from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slice  # noqa: E402
+from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slices  # noqa: E402
 
 _ORDER = ("passthrough", "eb", "ss", "eb-ss")
+#: Preferred fixed values of the sweeps (the thesis geometry) when several qualify.
+RT60_FIXED = ("speech_az_deg", "noise_az_deg")
+RT60_PREFER = (T.THESIS_GEOMETRY["speech_az_deg"], T.THESIS_GEOMETRY["noise_az_deg"])
+AZIMUTH_FIXED = ("rt60_s", "speech_az_deg")
+AZIMUTH_PREFER = (0.0, T.THESIS_GEOMETRY["speech_az_deg"])
+#: At most this many azimuth sweeps (e.g. one per RT60) are drawn and tabulated.
+MAX_AZIMUTH_GROUPS = 4
 
 
 def _rank(name) -> int:
@@ -169,11 +176,13 @@ def _geo_text(geo) -> str:
 
 
 def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
-    """SNR-I and output PESQ (nb) vs RT60, per noise and system (the rows of
-    :func:`~benchmarks.report_tables.sweep_slice`).  Needs more than one RT60."""
-    sel, angles, snrs = sweep_slice(rows, "rt60_s", ("speech_az_deg", "noise_az_deg"))
-    if not sel:
+    """SNR-I and output PESQ (nb) vs RT60, per noise and system, for the best RT60 sweep
+    (:func:`~benchmarks.report_tables.sweep_slices`; thesis angles preferred).  Needs more
+    than one RT60."""
+    slices = sweep_slices(rows, "rt60_s", RT60_FIXED, prefer=RT60_PREFER)
+    if not slices:
         return []
+    sel, angles, snrs = slices[0]
     noises = _swept_noises(sel, "rt60_s")
     if not noises:
         return []
@@ -218,28 +227,36 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
 
 
 def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
-    """Polar SNR-I vs noise azimuth per noise and system (the rows of
-    :func:`~benchmarks.report_tables.sweep_slice`).  Needs more than one noise azimuth."""
-    sel, base, snrs = sweep_slice(rows, "noise_az_deg", ("rt60_s", "speech_az_deg"))
-    if not sel:
+    """Polar SNR-I vs noise azimuth per noise and system; one panel per noise and per
+    azimuth sweep (e.g. per RT60; :func:`~benchmarks.report_tables.sweep_slices`, at most
+    :data:`MAX_AZIMUTH_GROUPS`).  Needs more than one noise azimuth."""
+    slices = sweep_slices(
+        rows, "noise_az_deg", AZIMUTH_FIXED, prefer=AZIMUTH_PREFER, max_groups=MAX_AZIMUTH_GROUPS
+    )
+    panels = [
+        (sel, base, snrs, noise)
+        for sel, base, snrs in slices
+        for noise in _swept_noises(sel, "noise_az_deg")
+    ]
+    if not panels:
         return []
-    noises = _swept_noises(sel, "noise_az_deg")
-    if not noises:
-        return []
-    names = _enhancers(sel)
+    every = [r for sel, *_ in slices for r in sel]
+    names = _enhancers(every)
     colours = _colours(names)
+    n_cols = min(3, len(panels))
+    n_rows = math.ceil(len(panels) / n_cols)
     fig, axes = plt.subplots(
-        1,
-        len(noises),
-        figsize=(4.6 * len(noises), 4.8),
+        n_rows,
+        n_cols,
+        figsize=(4.6 * n_cols, 4.6 * n_rows + 0.6),
         subplot_kw={"projection": "polar"},
         squeeze=False,
     )
     lo = min(
-        (num(r.get("snr_i_db")) for r in sel if num(r.get("snr_i_db")) is not None), default=0.0
+        (num(r.get("snr_i_db")) for r in every if num(r.get("snr_i_db")) is not None), default=0.0
     )
-    for j, noise in enumerate(noises):
-        ax = axes[0, j]
+    for k, (sel, base, snrs, noise) in enumerate(panels):
+        ax = axes[k // n_cols, k % n_cols]
         for name in names:
             agg = aggregate(
                 [r for r in sel if r["noise"] == noise and r["enhancer"] == name], ("noise_az_deg",)
@@ -257,16 +274,18 @@ def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             th = [math.radians(a) for a in az]
             ax.plot(th, r, marker="o", color=colours[name], label=name)
         ax.set_rmin(min(0.0, math.floor(lo)))
-        ax.set_title(f"SNR-I (dB) vs noise azimuth, {noise}", fontsize=9)
+        ax.set_title(
+            f"{noise}: RT60 {num(base[0]) or 0:g} s, speech {num(base[1]) or 0:g}°, "
+            f"SNR {', '.join(f'{s:g}' for s in snrs)} dB",
+            fontsize=9,
+            pad=14,
+        )
+    for k in range(len(panels), n_rows * n_cols):
+        axes[k // n_cols, k % n_cols].set_visible(False)
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=max(1, len(labels)), fontsize=8)
-    speech_az = base[1] if base else None
-    fig.suptitle(
-        f"RT60 {num(base[0]) or 0:g} s, speech at {num(speech_az) or 0:g}°; mean over seeds "
-        f"at input SNR {', '.join(f'{s:g}' for s in snrs)} dB",
-        fontsize=10,
-    )
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.suptitle("SNR-I (dB) vs noise azimuth (mean over seeds)", fontsize=10)
+    fig.tight_layout(rect=(0, 0.5 / (4.6 * n_rows + 0.6), 1, 0.95))
     return [_save(fig, out_dir / "snr_i_vs_noise_azimuth.png")]
 
 

@@ -38,7 +38,7 @@ from benchmarks.report_tables import (
     markdown_table,
     normalise_rows,
     num,
-    sweep_slice,
+    sweep_slices,
     write_csv,
 )
 
@@ -123,16 +123,21 @@ def averages(comparison: Sequence[dict]) -> list[dict[str, Any]]:
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), r["noise"]))
 
 
-def _sweep(ok_rows, vary: str, fixed: tuple[str, ...]) -> tuple[list[dict], tuple | None, list]:
-    """Per (enhancer, noise, ``vary``) over the rows of :func:`sweep_slice` (other columns
-    fixed; mean over the common input SNRs, seeds and talkers)."""
-    sel, base, snrs = sweep_slice(ok_rows, vary, fixed)
-    if not sel:
-        return [], None, []
-    agg = aggregate(sel, ("enhancer", "noise", vary))
-    order = _enhancer_order(r["enhancer"] for r in agg)
-    agg.sort(key=lambda r: (order.index(r["enhancer"]), str(r["noise"])))
-    return agg, base, snrs
+def _sweep(
+    ok_rows, vary: str, fixed: tuple[str, ...], prefer: tuple, max_groups: int
+) -> tuple[list[dict], list[str]]:
+    """Per (enhancer, noise, fixed..., ``vary``) over the sweeps of :func:`sweep_slices`
+    (mean over the common input SNRs, seeds and talkers); also one line per sweep saying
+    what was held fixed."""
+    records: list[dict] = []
+    notes: list[str] = []
+    for sel, base, snrs in sweep_slices(ok_rows, vary, fixed, prefer=prefer, max_groups=max_groups):
+        agg = aggregate(sel, ("enhancer", "noise", *fixed, vary))
+        agg.sort(key=lambda r: (_rank(r["enhancer"]), str(r["enhancer"]), str(r["noise"])))
+        records += agg
+        held = ", ".join(f"{k} = {v:g}" for k, v in zip(fixed, base) if num(v) is not None)
+        notes.append(f"{held}; input SNR {_snr_text(snrs)}")
+    return records, notes
 
 
 def _snr_text(snrs) -> str:
@@ -275,26 +280,36 @@ def _averages_section(avg: Sequence[dict]) -> list[str]:
     return lines
 
 
-def _sweep_section(title: str, agg: Sequence[dict], vary: str, unit: str, base_text: str):
+_COLUMN_LABELS = {
+    "rt60_s": ("RT60 (s)", 3),
+    "speech_az_deg": ("speech az (°)", 0),
+    "noise_az_deg": ("noise az (°)", 0),
+}
+
+
+def _sweep_section(title: str, agg: Sequence[dict], keys: Sequence[str], notes: Sequence[str]):
+    """A sweep table: system, noise, the ``keys`` (fixed ones, then the varied one), metrics."""
     if not agg:
         return []
-    header = ["system", "noise", unit, "SNR-I (dB)", "PESQ nb out", "PESQ wb out", "PESQ-I nb",
-              "STOI out", "n"]  # fmt: skip
+    header = ["system", "noise", *(_COLUMN_LABELS[k][0] for k in keys), "SNR-I (dB)",
+              "PESQ nb out", "PESQ wb out", "PESQ-I nb", "STOI out", "n"]  # fmt: skip
     body = [
         [
             _label(r["enhancer"]),
             r["noise"],
-            fmt(r[vary], 3 if vary == "rt60_s" else 0),
+            *(fmt(r[k], _COLUMN_LABELS[k][1]) for k in keys),
             _pm(r, "snr_i_db"),
             _pm(r, "pesq_nb_out", 3),
             _pm(r, "pesq_wb_out", 3),
             _pm(r, "pesq_nb_i", 3),
             _pm(r, "stoi_out", 3),
             str(r["n"]),
-        ]  # fmt: skip
+        ]
         for r in agg
     ]
-    return [f"## {title}", "", base_text, "", markdown_table(header, body), ""]
+    held = "; ".join(f"({k + 1}) {note}" for k, note in enumerate(notes))
+    text = f"Mean ± std over seeds and talkers. Sweeps shown: {held}."
+    return [f"## {title}", "", text, "", markdown_table(header, body), ""]
 
 
 def _conditions_section(cond: Sequence[dict]) -> list[str]:
@@ -465,14 +480,21 @@ def write_report(
             ],  # fmt: skip
         )
     )
-    rt60, rt60_base, rt60_snrs = _sweep(ok, "rt60_s", ("speech_az_deg", "noise_az_deg"))
-    azim, azim_base, azim_snrs = _sweep(ok, "noise_az_deg", ("rt60_s", "speech_az_deg"))
-    sweep_cols = ["enhancer", "noise", "{}", "n", *_with_std(fields)]
+    rt60_keys = (*figures.RT60_FIXED, "rt60_s")
+    azim_keys = (*figures.AZIMUTH_FIXED, "noise_az_deg")
+    rt60, rt60_notes = _sweep(ok, "rt60_s", figures.RT60_FIXED, figures.RT60_PREFER, 1)
+    azim, azim_notes = _sweep(
+        ok,
+        "noise_az_deg",
+        figures.AZIMUTH_FIXED,
+        figures.AZIMUTH_PREFER,
+        figures.MAX_AZIMUTH_GROUPS,
+    )
     if rt60:
-        cols = [c.format("rt60_s") for c in sweep_cols]
+        cols = ["enhancer", "noise", *rt60_keys, "n", *_with_std(fields)]
         paths.append(write_csv(report_dir / "rt60_sweep.csv", rt60, cols))
     if azim:
-        cols = [c.format("noise_az_deg") for c in sweep_cols]
+        cols = ["enhancer", "noise", *azim_keys, "n", *_with_std(fields)]
         paths.append(write_csv(report_dir / "azimuth_sweep.csv", azim, cols))
     fail = failures(all_rows)
     paths.append(
@@ -502,18 +524,8 @@ def write_report(
     lines = _meta_lines(meta, all_rows)
     lines += _thesis_section(comparison)
     lines += _averages_section(avg)
-    if rt60:
-        lines += _sweep_section(
-            "Reverberation (RT60 sweep)", rt60, "rt60_s", "RT60 (s)",
-            f"Speech at {rt60_base[0]:g}°, noise at {rt60_base[1]:g}°; mean ± std over seeds, "
-            f"talkers and the input SNRs {_snr_text(rt60_snrs)}.",
-        )  # fmt: skip
-    if azim:
-        lines += _sweep_section(
-            "Noise azimuth sweep", azim, "noise_az_deg", "noise az (°)",
-            f"RT60 {azim_base[0]:g} s, speech at {azim_base[1]:g}°; mean ± std over seeds, "
-            f"talkers and the input SNRs {_snr_text(azim_snrs)}.",
-        )  # fmt: skip
+    lines += _sweep_section("Reverberation (RT60 sweep)", rt60, rt60_keys, rt60_notes)
+    lines += _sweep_section("Noise azimuth sweep", azim, azim_keys, azim_notes)
     lines += _conditions_section(cond)
     lines += _failures_section(fail, len(all_rows))
     lines += _sources_section(all_rows)

@@ -133,38 +133,49 @@ def modal(rows: Sequence[Mapping[str, Any]], keys: Sequence[str]) -> tuple | Non
     return min(counts, key=lambda k: (-counts[k], tuple(_sort_key(v) for v in k)))
 
 
-def sweep_slice(
-    rows: Sequence[Mapping[str, Any]], vary: str, fixed: Sequence[str]
-) -> tuple[list[Mapping[str, Any]], tuple | None, list]:
-    """The rows of a one-parameter sweep over ``vary``, comparable across its values.
+def sweep_slices(
+    rows: Sequence[Mapping[str, Any]],
+    vary: str,
+    fixed: Sequence[str],
+    *,
+    prefer: tuple | None = None,
+    max_groups: int = 1,
+) -> list[tuple[list[Mapping[str, Any]], tuple, list]]:
+    """The one-parameter sweeps over ``vary`` in ``rows``, comparable across its values.
 
-    Among the combinations of ``fixed`` columns, take the one where ``vary`` has the most
-    distinct values (ties: more rows, then the smallest key), then keep only the input SNRs
-    present at every value of ``vary`` (all SNRs if none is common), so that averaging
-    over SNR does not mix different SNR sets.  Returns ``(rows, fixed_values, snrs)``;
-    empty when ``vary`` never takes two values at fixed ``fixed``.
+    Rows are grouped by the ``fixed`` columns; a group is a sweep when ``vary`` takes at
+    least two values in it.  Groups are ranked by the number of distinct ``vary`` values,
+    then the ``prefer`` key first (e.g. the thesis geometry), then more rows, then the
+    smallest key; at most ``max_groups`` are returned.  In each, only the input SNRs
+    present at every value of ``vary`` are kept (all if none is common), so that averaging
+    over SNR never mixes different SNR sets.
+
+    Returns
+    -------
+    list of (rows, fixed_values, snrs)
     """
     groups: dict[tuple, list[Mapping[str, Any]]] = {}
     for r in rows:
         groups.setdefault(tuple(r.get(k) for k in fixed), []).append(r)
-    if not groups:
-        return [], None, []
-    best = min(
-        groups,
+    swept = [k for k in groups if len(distinct(groups[k], vary)) >= 2]
+    swept.sort(
         key=lambda k: (
             -len(distinct(groups[k], vary)),
+            k != prefer,
             -len(groups[k]),
             tuple(_sort_key(v) for v in k),
-        ),
+        )
     )
-    sel = groups[best]
-    values = distinct(sel, vary)
-    if len(values) < 2:
-        return [], None, []
-    snr_sets = [set(distinct([r for r in sel if r.get(vary) == v], "snr_in_db")) for v in values]
-    common = set.intersection(*snr_sets) or set.union(*snr_sets)
-    sel = [r for r in sel if r.get("snr_in_db") in common]
-    return sel, best, sorted(common)
+    out = []
+    for key in swept[:max_groups]:
+        sel = groups[key]
+        values = distinct(sel, vary)
+        snr_sets = [
+            set(distinct([r for r in sel if r.get(vary) == v], "snr_in_db")) for v in values
+        ]
+        common = set.intersection(*snr_sets) or set.union(*snr_sets)
+        out.append(([r for r in sel if r.get("snr_in_db") in common], key, sorted(common)))
+    return out
 
 
 def write_csv(path: Path, records: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> Path:

@@ -90,7 +90,8 @@ def thesis_row(enhancer: str, noise: str, snr_in_db: float) -> ThesisRow | None:
 
 
 def is_thesis_condition(row: dict) -> bool:
-    """True when a results row has the thesis' geometry (anechoic, 45/270 deg) and noise."""
+    """True when a results row has the thesis' geometry (anechoic, 45/270 deg, a point
+    noise source) and one of its noises."""
     try:
         rt60 = float(row.get("rt60_s") or 0.0)
         saz = float(row["speech_az_deg"]) % 360
@@ -102,6 +103,7 @@ def is_thesis_condition(row: dict) -> bool:
         and math.isclose(saz, THESIS_GEOMETRY["speech_az_deg"])
         and math.isclose(naz, THESIS_GEOMETRY["noise_az_deg"])
         and row.get("noise") in THESIS_NOISES
+        and row.get("noise_field") in (None, "point")  # a point interferer, when recorded
     )
 
 

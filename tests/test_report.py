@@ -202,3 +202,9 @@ def test_versioned_names_warnings_and_negative_zero(tmp_path):
     assert "2 × UserWarning: noise 'babble' synthesized" in text
     assert "-0.00" not in text
     assert "output power): **1**." in text and "  - passthrough: 1 rows" in text
+
+
+def test_diffuse_noise_is_not_a_thesis_condition():
+    row = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble"}
+    assert T.is_thesis_condition({**row, "noise_field": "point"})
+    assert not T.is_thesis_condition({**row, "noise_field": "diffuse"})
