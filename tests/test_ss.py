@@ -117,3 +117,26 @@ def test_thesis_preset_and_json_round_trip():
 def test_bad_params_name_the_field(cls, kwargs, name):
     with pytest.raises(ParameterError, match=name):
         cls(**kwargs)
+
+
+def test_floor_never_amplifies_a_bin_by_default_regression_replay_cross_term():
+    """Regression: bins below the floor got gains up to 1000 and replay SNR described the mask.
+
+    Oracle: the rule written out.  |X| = 0.01 is below subf sqrt(Pn) = 0.02, so the literal
+    Berouti rule gives G = 2; the default caps it at 1, gain_max=1000 keeps the literal rule.
+    """
+    X, Pn, P = np.array([0.01]), np.array([1.0]), np.array([1.0])
+    kw = dict(osub0=4, osub_slope=0.15, osub_min=1, osub_max=4.75, subf=0.02)
+    np.testing.assert_allclose(subtraction_gain(X, P, Pn, **kw), 1.0, rtol=1e-14)
+    np.testing.assert_allclose(subtraction_gain(X, P, Pn, gain_max=1e3, **kw), 2.0, rtol=1e-14)
+    with pytest.raises(ParameterError, match="gain_max"):
+        SpectralSubtraction(gain_max=0.5)
+
+
+def test_gain_mask_is_at_most_one_on_speech_in_noise(rng):
+    """With the default gain_max the recorded mask never exceeds 1 (no bin is amplified)."""
+    t = np.arange(3 * FS) / FS
+    s = 0.1 * np.sin(2 * np.pi * 200 * t) * (np.sin(2 * np.pi * 3 * t) > 0)
+    x = (s + 0.05 * rng.standard_normal(t.size))[None]
+    g = SpectralSubtraction().process(x, FS).trace["gain"]
+    assert g.max() <= 1.0 + 1e-12
