@@ -33,7 +33,7 @@ from typing import Any
 from benchmarks.executors import EXECUTORS, make_executor
 from benchmarks.store import ResultStore, package_versions
 from benchmarks.sweep import Condition, Sweep, load_sweep
-from scenesim.errors import ParameterError
+from scenesim.errors import ConfigError, ParameterError
 from scenesim.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_choice
 
@@ -105,6 +105,7 @@ class RunSummary:
     n_errors: int
     wall_s: float
     report_files: tuple[Path, ...] = ()
+    report_error: str | None = None
     warnings: tuple[str, ...] = field(default=())
 
     def line(self) -> str:
@@ -357,6 +358,8 @@ def run_sweep(
         data_dir = os.environ.get("SCENESIM_DATA") or None
     data_dir = str(Path(data_dir).resolve()) if data_dir else None
 
+    _check_data(conditions, data_dir)
+
     out_dir = Path(out_dir)
     t_start = time.perf_counter()
     with ResultStore.open(out_dir) as store:
@@ -404,8 +407,12 @@ def run_sweep(
             store.finish_run(run_id, status=status, n_rows_written=n_rows, n_errors=n_errors)
 
         report_files: tuple[Path, ...] = ()
+        report_error = None
         if report:
-            report_files = tuple(write_store_report(out_dir, store=store))
+            try:
+                report_files = tuple(write_store_report(out_dir, store=store))
+            except Exception as exc:  # the rows are safe in the store; say so instead of crashing
+                report_error = _exc_text(exc)
     return RunSummary(
         out_dir=out_dir,
         store_path=store.path,
@@ -417,8 +424,25 @@ def run_sweep(
         n_errors=n_errors,
         wall_s=time.perf_counter() - t_start,
         report_files=report_files,
+        report_error=report_error,
         warnings=tuple(notes),
     )
+
+
+def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
+    """Fail before starting (not in every worker) on a bad data directory or unknown noise type."""
+    from data_recipes import open_data
+
+    for fs in sorted({c.fs for c in conditions}):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # workers report fallbacks in the rows
+            ds = open_data(data_dir, fs=fs)
+        available = set(ds.noise_types())
+        for noise in sorted({c.noise for c in conditions} - available):
+            raise ConfigError(
+                f"noise type {noise!r} is neither in the data directory ({ds.description}) nor "
+                f"synthesizable; available: {', '.join(sorted(available))}"
+            )
 
 
 def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, Any]]]:

@@ -96,6 +96,19 @@ EXTRA_COLUMNS: tuple[tuple[str, str], ...] = (
 )
 """More columns (contract.md: "More columns are welcome")."""
 
+
+
+def _evaluate_columns() -> tuple[tuple[str, str], ...]:
+    """Columns of :data:`benchmarks.evaluate.ROW_COLUMNS` not listed above (kept in step with it)."""
+    try:
+        from benchmarks.evaluate import ROW_COLUMNS
+    except ImportError:  # pragma: no cover - evaluate is part of the package
+        return ()
+    have = {n for n, _ in CONTRACT_COLUMNS + EXTRA_COLUMNS}
+    return tuple((n, t) for n, t in ROW_COLUMNS.items() if n not in have)
+
+
+EXTRA_COLUMNS = EXTRA_COLUMNS + _evaluate_columns()
 COLUMNS: tuple[str, ...] = tuple(name for name, _ in CONTRACT_COLUMNS + EXTRA_COLUMNS)
 
 RUN_COLUMNS: tuple[tuple[str, str], ...] = (

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sqlite3
 
 import pytest
+from _bench_smoke import local_smoke_run
 
 from benchmarks.cli.main import main
 from benchmarks.sweep import load_sweep
@@ -22,9 +23,7 @@ def _rows(out):
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory):
     """``scenesim bench run smoke`` into a fresh directory (one worker: no pool start-up)."""
-    out = tmp_path_factory.mktemp("smoke")
-    code = main(["bench", "run", "smoke", "--out", str(out), "--workers", "1"])
-    return code, out
+    return local_smoke_run(tmp_path_factory)
 
 
 def test_smoke_end_to_end_rows_and_report(smoke_run, capsys):

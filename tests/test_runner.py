@@ -20,7 +20,7 @@ from benchmarks.runner import (
 )
 from benchmarks.store import ResultStore
 from benchmarks.sweep import parse_sweep
-from scenesim.errors import ParameterError
+from scenesim.errors import ConfigError, DataError, ParameterError
 
 # 1 s of speech keeps each unit well under a second (PESQ/STOI scale with length).
 TINY = """\
@@ -160,3 +160,12 @@ def test_units_are_whole_geometry_groups_only_when_there_are_enough_groups():
     assert [len(u) for u in plan_units(tasks, workers=1)] == [1] * 16  # serial: finest grain
     rows = run_unit(UnitTask(tuple(tasks[:2])))
     assert [[r["snr_in_db"] for r in per_cond] for per_cond in rows] == [[0.0, 0.0], [10.0, 10.0]]
+
+
+def test_unknown_noise_type_or_data_dir_fails_before_anything_runs(tmp_path):
+    sweep = parse_sweep(TINY.replace('noise = ["wind"]', 'noise = ["no-such-noise"]'))
+    with pytest.raises(ConfigError, match="no-such-noise"):
+        run_sweep(sweep, tmp_path / "a", workers=1, report=False, progress=False)
+    with pytest.raises(DataError, match="nowhere"):
+        run_sweep(parse_sweep(TINY), tmp_path / "b", data_dir=tmp_path / "nowhere", workers=1, report=False)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()

@@ -90,6 +90,13 @@ def _run(args) -> int:
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
         print(f"report:  {index}")
+    if summary.report_error:
+        print(
+            f"scenesim: error: the report could not be written ({summary.report_error}); the results "
+            f"are stored; retry with: scenesim bench report {args.out}",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
