@@ -169,3 +169,18 @@ def test_unknown_noise_type_or_data_dir_fails_before_anything_runs(tmp_path):
     with pytest.raises(DataError, match="nowhere"):
         run_sweep(parse_sweep(TINY), tmp_path / "b", data_dir=tmp_path / "nowhere", workers=1, report=False)
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_enhancer_params_and_geometry_reach_the_enhancer(tmp_path):
+    """``[enhancer_params.eb] mu = ...`` is used, and the scene's spacing overrides the default."""
+    text = TINY.replace('["passthrough", "ss"]', '["passthrough", "eb"]').replace(
+        "duration_s = 1.5", "duration_s = 1.5\nspacing_m = 0.03"
+    ) + "\n[enhancer_params.eb]\nmu = 0.02\n"
+    sweep = parse_sweep(text)
+    summary = run_sweep(sweep, tmp_path, workers=1, limit=1, report=False, progress=False)
+    assert summary.n_rows == 2
+    with ResultStore.open(tmp_path) as store:
+        eb = next(r for r in store.rows() if r["enhancer"] == "eb")
+    spec = json.loads(eb["enhancer_spec"])
+    assert spec["name"] == "eb" and spec["params"]["mu"] == 0.02 and spec["params"]["spacing_m"] == 0.03
+    assert eb["status"] == "ok"
