@@ -88,14 +88,18 @@ def _warm(_):
 
 
 def metric_floor(pairs, workers: int, *, with_estoi: bool = False) -> float:
-    """Wall time of the metric calls alone on ``workers`` warm processes (1: this process)."""
+    """Wall time of the metric calls alone on ``workers`` warm worker processes.
+
+    Workers start like the sweep's (fork server, single-threaded BLAS), so the floor is
+    measured under the same conditions as the sweep's own metric calls.
+    """
+    import multiprocessing
+
+    from benchmarks.executors import SINGLE_THREAD_ENV, _environ
+
     fn = _metrics_with_estoi if with_estoi else _metric_calls
-    if workers == 1:
-        t0 = time.perf_counter()
-        for p in pairs:
-            fn(p)
-        return time.perf_counter() - t0
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    ctx = multiprocessing.get_context("forkserver")
+    with _environ(SINGLE_THREAD_ENV), ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
         list(pool.map(_warm, range(workers)))
         t0 = time.perf_counter()
         list(pool.map(fn, pairs, chunksize=1))
