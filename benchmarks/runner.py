@@ -251,7 +251,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
     notes = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
     if notes:
         for row in rows:
-            row["warnings"] = "; ".join(notes)
+            row["warnings"] = "\n".join(notes)
     return rows
 
 
@@ -391,7 +391,7 @@ def run_sweep(
                                 n_rows += store.write_rows(rows)
                                 n_errors += sum(r.get("status") != "ok" for r in rows)
                                 for r in rows:
-                                    for note in (r.get("warnings") or "").split("; "):
+                                    for note in (r.get("warnings") or "").split("\n"):
                                         if note:
                                             notes[note] = None
                             bar.update(len(unit))
