@@ -398,6 +398,7 @@ _BUILTINS = (
     ("passthrough", "enhancers.baselines:Passthrough"),
     ("das", "enhancers.baselines:DelayAndSum"),
     ("eb", "enhancers.eb:ElkoBeamformer"),
+    ("eb-gated", "enhancers.eb:GatedElkoBeamformer"),
     ("cardioid", "enhancers.eb:FixedCardioid"),
     ("hypercardioid", "enhancers.eb:FixedHypercardioid"),
     ("ss", "enhancers.ss:SpectralSubtraction"),
