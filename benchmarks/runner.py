@@ -366,6 +366,7 @@ def run_sweep(
         done = store.done_keys(include_errors=not retry_errors)
         tasks = plan_conditions(sweep, conditions, done, data_dir)
         _warn_changed_params(store, sweep, conditions, done)
+        _warn_changed_data(store, data_dir, n_kept=len(conditions) - len(tasks))
         run_id = store.start_run(
             sweep=sweep.name,
             source=sweep.source,
@@ -489,6 +490,21 @@ def _warn_changed_params(store: ResultStore, sweep: Sweep, conditions, done) -> 
         warnings.warn(
             f"rows for {name!r} already in the store were computed with other parameters and are "
             "kept; use a new --out directory to recompute them",
+            stacklevel=3,
+        )
+
+
+def _warn_changed_data(store: ResultStore, data_dir: str | None, *, n_kept: int) -> None:
+    """Rows kept from a run on other speech/noise data would mix two data sets: say so."""
+    runs = store.runs()
+    if not runs or not n_kept:
+        return
+    before = runs[-1].get("data_dir")
+    if before != data_dir:
+        warnings.warn(
+            f"{n_kept} condition(s) already in the store were computed with data "
+            f"{before or 'built-in'} and are kept (now: {data_dir or 'built-in'}); use a new "
+            "--out directory to compute everything on the new data",
             stacklevel=3,
         )
 

@@ -184,3 +184,11 @@ def test_enhancer_params_and_geometry_reach_the_enhancer(tmp_path):
     spec = json.loads(eb["enhancer_spec"])
     assert spec["name"] == "eb" and spec["params"]["mu"] == 0.02 and spec["params"]["spacing_m"] == 0.03
     assert eb["status"] == "ok"
+
+
+def test_resuming_on_other_data_warns_that_old_rows_are_kept(tmp_path, shared_data_dir):
+    sweep = parse_sweep(TINY.replace('["passthrough", "ss"]', '["passthrough"]'))
+    run_sweep(sweep, tmp_path, workers=1, limit=1, report=False, progress=False)
+    with pytest.warns(UserWarning, match="computed with data built-in and are kept"):
+        summary = run_sweep(sweep, tmp_path, workers=1, data_dir=shared_data_dir, report=False, progress=False)
+    assert summary.n_computed == 1  # only the missing condition, on the new data
