@@ -26,7 +26,6 @@ import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless bac
 from benchmarks import thesis_reference as T  # noqa: E402
 from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slices  # noqa: E402
 
-_ORDER = ("passthrough", "eb", "ss", "eb-ss")
 #: Preferred fixed values of the sweeps (the thesis geometry) when several qualify.
 RT60_FIXED = ("speech_az_deg", "noise_az_deg")
 RT60_PREFER = (T.THESIS_GEOMETRY["speech_az_deg"], T.THESIS_GEOMETRY["noise_az_deg"])
@@ -36,14 +35,9 @@ AZIMUTH_PREFER = (0.0, T.THESIS_GEOMETRY["speech_az_deg"])
 MAX_AZIMUTH_GROUPS = 4
 
 
-def _rank(name) -> int:
-    base = T.base_name(name)
-    return _ORDER.index(base) if base in _ORDER else len(_ORDER)
-
-
 def _enhancers(rows) -> list[str]:
     names = distinct(rows, "enhancer")
-    return sorted(names, key=lambda n: (_rank(n), str(n)))
+    return sorted(names, key=lambda n: (T.system_rank(n), str(n)))
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:

@@ -43,12 +43,6 @@ from benchmarks.report_tables import (
 )
 
 REPORT_DIRNAME = "report"
-_ORDER = ("passthrough", "eb", "ss", "eb-ss")
-
-
-def _rank(name) -> int:
-    base = T.base_name(name)
-    return _ORDER.index(base) if base in _ORDER else len(_ORDER)
 
 
 #: The "All conditions" Markdown table is included up to this many conditions (CSV always).
@@ -58,7 +52,7 @@ _THESIS_COLS = ("snr_out_db", "snr_i_db", "pesq_in", "pesq_out", "pesq_i")
 
 
 def _enhancer_order(names: Iterable[str]) -> list[str]:
-    return sorted(set(names), key=lambda n: (_rank(n), str(n)))
+    return sorted(set(names), key=lambda n: (T.system_rank(n), str(n)))
 
 
 def _with_std(fields: Sequence[str]) -> list[str]:
@@ -86,7 +80,7 @@ def thesis_comparison(ok_rows: Sequence[dict]) -> list[dict[str, Any]]:
     return sorted(
         out,
         key=lambda r: (
-            _rank(r["enhancer"]),
+            T.system_rank(r["enhancer"]),
             str(r["enhancer"]),
             r["noise"],
             r["snr_in_db"] if r["snr_in_db"] is not None else math.inf,
@@ -133,7 +127,7 @@ def _sweep(
     notes: list[str] = []
     for sel, base, snrs in sweep_slices(ok_rows, vary, fixed, prefer=prefer, max_groups=max_groups):
         agg = aggregate(sel, ("enhancer", "noise", *fixed, vary))
-        agg.sort(key=lambda r: (_rank(r["enhancer"]), str(r["enhancer"]), str(r["noise"])))
+        agg.sort(key=lambda r: (T.system_rank(r["enhancer"]), str(r["enhancer"]), str(r["noise"])))
         records += agg
         held = ", ".join(f"{k} = {v:g}" for k, v in zip(fixed, base) if num(v) is not None)
         notes.append(f"{held}; input SNR {_snr_text(snrs)}")
@@ -435,7 +429,7 @@ def write_report(
 
     cond = sorted(
         aggregate(ok, CONDITION_KEYS, fields),
-        key=lambda r: (_rank(r["enhancer"]), str(r["enhancer"])),  # stable: keeps key order
+        key=lambda r: (T.system_rank(r["enhancer"]), str(r["enhancer"])),  # stable: keeps key order
     )
     paths.append(
         write_csv(report_dir / "conditions.csv", cond, [*CONDITION_KEYS, "n", *_with_std(fields)])

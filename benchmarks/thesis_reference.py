@@ -73,6 +73,16 @@ def base_name(enhancer: str) -> str:
     return str(enhancer).split("@", 1)[0].strip().lower()
 
 
+SYSTEM_ORDER = ("passthrough", "eb", "eb-gated", "ss", "eb-ss")
+"""Order in which tables and figures list systems: reference mic first, then the thesis' order."""
+
+
+def system_rank(enhancer: str) -> int:
+    """Sort key placing known systems in :data:`SYSTEM_ORDER` and any other plugin after them."""
+    base = base_name(enhancer)
+    return SYSTEM_ORDER.index(base) if base in SYSTEM_ORDER else len(SYSTEM_ORDER)
+
+
 def thesis_system(enhancer: str) -> str | None:
     """The thesis system our enhancer reproduces (``"eb-ss"``, ``"eb-ss@1"`` -> ``"EB-SS"``)."""
     return THESIS_SYSTEMS.get(base_name(enhancer))

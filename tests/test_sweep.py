@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("reverb", 36, 4), ("angles", 24, 3), ("smoke", 4, 4)],
+    [("thesis", 18, 4), ("reverb", 36, 5), ("angles", 24, 5), ("smoke", 4, 4)],
 )
 def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancers):
     sweep = load_sweep(name)
