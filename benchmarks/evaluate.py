@@ -111,6 +111,12 @@ def _ref_row(rendered) -> np.ndarray:
     )[0]
 
 
+def _quality_names(suffix: str) -> tuple[str, ...]:
+    """Column names :func:`_quality` fills for ``suffix`` ("in" or "out"), in a fixed order."""
+    return (f"pesq_nb_{suffix}", f"pesq_wb_{suffix}", f"stoi_{suffix}", f"estoi_{suffix}",
+            f"segsnr_{suffix}_db", f"si_sdr_{suffix}_db")
+
+
 def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: list[str]) -> dict:
     """PESQ nb/wb, STOI/ESTOI, segmental SNR and SI-SDR of ``est`` against ``ref``."""
     out: dict[str, Any] = {}
@@ -380,7 +386,14 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
             f"matches the reference at a lag of {lag} samples (tolerance {tol})"
         )
 
-    row.update(_quality(ref_al, y_al, fs, "out", errors))
+    mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0]
+    if latency == 0 and ref_al.size == ref.size and np.array_equal(y_al, mix0[: ref.size]):
+        # The output is the unprocessed reference-mic signal (passthrough): the very signals
+        # the input metrics scored, so the scores are the same.  Saves a fifth of a thesis
+        # sweep's PESQ/STOI time.
+        row.update(zip(_quality_names("out"), (row[k] for k in _quality_names("in"))))
+    else:
+        row.update(_quality(ref_al, y_al, fs, "out", errors))
     for name in ("pesq_nb", "pesq_wb", "stoi", "estoi"):
         row[f"{name}_i"] = _delta(row[f"{name}_out"], row[f"{name}_in"])
     row["segsnr_i_db"] = _delta(row["segsnr_out_db"], row["segsnr_in_db"])

@@ -8,11 +8,18 @@ importing upward.
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import sys
+import os
 
-from scenesim.errors import ScenesimError
+# Our parallelism is one process per worker; a multi-threaded BLAS in each would
+# oversubscribe the cores.  Set before numpy is first imported; a user's own setting wins.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import importlib  # noqa: E402
+import sys  # noqa: E402
+
+from scenesim.errors import ScenesimError  # noqa: E402
 
 _COMMANDS = ("bench", "simulate", "enhance", "data", "rir")
 
