@@ -208,3 +208,20 @@ def test_diffuse_noise_is_not_a_thesis_condition():
     row = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble"}
     assert T.is_thesis_condition({**row, "noise_field": "point"})
     assert not T.is_thesis_condition({**row, "noise_field": "diffuse"})
+
+
+def test_thesis_report_explains_why_the_eb_exceeds_the_printed_tables(tmp_path):
+    rows = [
+        dict(condition_id=f"c{snr}", enhancer=name, noise="babble", snr_in_db=snr, rt60_s=0.0,
+             speech_az_deg=45.0, noise_az_deg=270.0, seed=0, snr_out_db=snr + 30.0, snr_i_db=30.0,
+             pesq_nb_in=1.5, pesq_nb_out=4.0, pesq_wb_in=1.2, pesq_wb_out=3.5, stoi_in=0.8,
+             stoi_out=0.99, speech_source="artificial-voice", noise_source="synthetic:babble",
+             status="ok", error=None)
+        for snr in (0, 5) for name in ("eb", "passthrough")
+    ]
+    write_report(rows, tmp_path)
+    text = (tmp_path / "report" / "summary.md").read_text()
+    assert "Reading the comparison" in text
+    # Without an EB system there is nothing to explain.
+    write_report([r for r in rows if r["enhancer"] == "passthrough"], tmp_path / "pt")
+    assert "Reading the comparison" not in (tmp_path / "pt" / "report" / "summary.md").read_text()
