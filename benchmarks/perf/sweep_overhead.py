@@ -10,7 +10,10 @@ on every input and output signal).  This script measures
    + STOI per signal, spread over the same number of warm worker processes;
 
 and prints ``overhead = W_n / M_n - 1`` (target <= 25 %) and ``speedup = W_1 / W_2``
-(target >= 1.7).  A second floor adds ESTOI, which the sweep also computes.
+(target >= 1.7).  The target is judged against the floor with ESTOI, because the sweep
+computes ESTOI too: that floor holds every metric call the sweep makes and nothing else.
+Signals the sweep does not score (an enhancer output identical to its input, whose scores
+are the input's) are not in the floor either.
 
 Usage::
 
@@ -56,6 +59,8 @@ def _signal_pairs(preset: str, data_dir: str | None) -> list[tuple[np.ndarray, n
             x = mix[: enh.tags.channels_in]
             y = enh.process(x, cond.fs).output[0]
             lat = int(enh.tags.latency_samples)
+            if lat == 0 and np.array_equal(y, mix[0]):
+                continue  # the sweep reuses the input scores for an unchanged signal (passthrough)
             pairs.append((ref[: ref.size - lat], y[lat:], cond.fs))
     return pairs
 
@@ -155,7 +160,7 @@ def main(argv=None) -> int:
             )
     w1, w2 = statistics.median(walls[1]), statistics.median(walls[2])
     print()
-    print(f"{len(pairs)} metric signal pairs (inputs + enhancer outputs)")
+    print(f"{len(pairs)} metric signal pairs (inputs + enhancer outputs the sweep scores)")
     print("| workers | sweep wall (s) | metric floor PESQ nb+wb+STOI (s) | overhead | floor + ESTOI (s) | overhead vs it |")
     print("|---|---|---|---|---|---|")
     for n, w in ((1, w1), (2, w2)):
@@ -163,7 +168,8 @@ def main(argv=None) -> int:
         print(f"| {n} | {w:.1f} | {f:.1f} | {100 * (w / f - 1):+.0f} % | {fe:.1f} | {100 * (w / fe - 1):+.0f} % |")
     print()
     print(f"speedup 1 -> 2 workers: {w1 / w2:.2f}x (target >= 1.7x); "
-          f"overhead at 2 workers: {100 * (w2 / floors[2] - 1):.0f} % (target <= 25 %)")  # fmt: skip
+          f"overhead at 2 workers vs all its metric calls (PESQ nb+wb, STOI, ESTOI): "
+          f"{100 * (w2 / floors[(2, 'estoi')] - 1):.0f} % (target <= 25 %)")  # fmt: skip
     if keep is not None:
         from benchmarks.runner import write_store_report
 
