@@ -1,6 +1,9 @@
-"""Memoised room impulse responses, keyed by a hash of their frozen parameters (style.md lesson 12).
+"""Memoised arrays -- room impulse responses and other deterministic warm-up results --
+keyed by a hash of their frozen parameters (style.md lesson 12).
 
-:func:`cached_rir` computes ``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)``
+:func:`cached_array` is the generic memoiser (``key`` from :func:`array_key` or
+:func:`stable_hash`, ``compute`` called on a miss); :func:`cached_rir` is a thin caller
+of it that computes ``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)``
 once per distinct set of parameters.  The key is the sha256 of a canonical JSON document
 (sorted keys, floats by their shortest exact ``repr``, tuples as lists) of every parameter, the room's
 per-wall absorption included, plus :data:`CACHE_FORMAT` -- so it is stable across
@@ -27,6 +30,7 @@ import os
 import tempfile
 import threading
 from collections import OrderedDict
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +40,11 @@ from scenesim.errors import ParameterError
 CACHE_FORMAT = "scenesim-rir-v1"
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
+CACHE_FORMAT_ARRAY = "scenesim-array-v1"
+"""Format tag of every :func:`array_key` (bump to invalidate all generic cached arrays)."""
+
 MEMORY_ITEMS = 128
-"""Maximum number of RIR arrays kept in memory (least recently used dropped first)."""
+"""Maximum number of arrays (RIRs and others) kept in memory (least recently used dropped first)."""
 
 ENV_VAR = "SCENESIM_CACHE"
 
@@ -127,6 +134,65 @@ def _save_atomic(path: Path, value: np.ndarray) -> None:
         raise
 
 
+def array_key(kind: str, version, **params) -> str:
+    """The cache key of one array: :func:`stable_hash` of ``kind``, ``version`` and ``params``.
+
+    ``kind`` names the quantity (e.g. ``"babble-bank"``) and ``version`` is the producer's
+    version constant: bump it when the computation's output changes, so that stale disk
+    files never match.  :data:`CACHE_FORMAT_ARRAY` is included as well.
+    """
+    return stable_hash({"format": CACHE_FORMAT_ARRAY, "kind": kind, "version": version, "params": params})
+
+
+def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None) -> np.ndarray:
+    """``compute()`` memoised under ``key``; returns a fresh copy.
+
+    Looks ``key`` up in the in-memory LRU, then in ``<dir>/<key>.npy`` (``cache_dir``, else
+    ``$SCENESIM_CACHE``; no disk level when both are unset or empty), and only then calls
+    ``compute()``, whose result is stored in both levels (the file written atomically).
+    An unreadable or truncated file is a miss: it is recomputed and rewritten.
+
+    Parameters
+    ----------
+    key : str
+        A :func:`stable_hash` of a canonical description of everything the array depends
+        on, a format/version string included (see :func:`array_key`); used as a file name.
+    compute : callable () -> ndarray
+        Called on a miss; its result is stored as a read-only float/int array.
+    cache_dir : path, optional
+        Disk cache directory; default ``$SCENESIM_CACHE``.
+
+    Returns
+    -------
+    ndarray
+        A writable copy of the cached array (same dtype and shape as ``compute()`` gave).
+    """
+    if not isinstance(key, str) or not key or any(c in key for c in "/\\:. "):
+        raise ParameterError("key", key, "a non-empty file-name-safe string (a stable_hash digest)")
+    with _lock:
+        hit = _memory.get(key)
+        if hit is not None:
+            _memory.move_to_end(key)
+            return hit.copy()
+    directory = _cache_dir(cache_dir)
+    path = None if directory is None else directory / f"{key}.npy"
+    if path is not None and path.is_file():
+        try:
+            value = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError):
+            value = None  # unreadable: recompute and overwrite below
+        if value is not None:
+            value.setflags(write=False)
+            _remember(key, value)
+            return value.copy()
+    value = np.array(compute())  # an owned copy: the caller's array may change later
+    value.setflags(write=False)
+    _remember(key, value)
+    if path is not None:
+        _save_atomic(path, value)
+    return value.copy()
+
+
 def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> np.ndarray:
     """``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
 
@@ -147,37 +213,19 @@ def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> 
     """
     from scenesim.ism import image_source_rir
 
-    key = rir_key(room, source_m, mics_m, fs=fs, **kwargs)
-    with _lock:
-        hit = _memory.get(key)
-        if hit is not None:
-            _memory.move_to_end(key)
-            return hit.copy()
-    directory = _cache_dir(cache_dir)
-    path = None if directory is None else directory / f"{key}.npy"
-    if path is not None and path.is_file():
-        try:
-            value = np.load(path, allow_pickle=False)
-        except (OSError, ValueError):
-            value = None  # unreadable: recompute and overwrite below
-        if value is not None:
-            _remember(key, value)
-            return value.copy()
-    value = np.asarray(image_source_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
-    value.setflags(write=False)
-    _remember(key, value)
-    if path is not None:
-        _save_atomic(path, value)
-    return value.copy()
+    def compute() -> np.ndarray:
+        return np.asarray(image_source_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
+
+    return cached_array(rir_key(room, source_m, mics_m, fs=fs, **kwargs), compute, cache_dir=cache_dir)
 
 
 def clear_memory_cache() -> None:
-    """Forget every RIR held in memory (disk files are left alone)."""
+    """Forget every array held in memory (disk files are left alone)."""
     with _lock:
         _memory.clear()
 
 
 def memory_cache_size() -> int:
-    """Number of RIRs currently held in memory."""
+    """Number of arrays currently held in memory."""
     with _lock:
         return len(_memory)
