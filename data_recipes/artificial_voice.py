@@ -35,6 +35,12 @@ from data_recipes.ltass import BYRNE_1994_CENTERS_HZ, BYRNE_1994_LEVELS_DB, band
 from scenesim.errors import ParameterError
 from scenesim.validate import check_choice, check_fs, check_positive
 
+#: Version of the generator's output.  Bump it whenever a change here (or in the LTASS
+#: table it equalises to) changes the samples :func:`artificial_voice` returns: it is part
+#: of the disk-cache keys of arrays built from these voices (the babble bank), so stale
+#: cached files then stop matching.
+VOICE_VERSION = 1
+
 #: RMS of a generated clip (-26 dBFS, the usual active-speech level of P.56 test material).
 OUTPUT_RMS = 0.05
 

@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import butter, sosfilt
 
-from data_recipes.artificial_voice import TALKERS, artificial_voice
+from data_recipes.artificial_voice import TALKERS, VOICE_VERSION, artificial_voice
 from data_recipes.ltass import ltass_psd_db
+from scenesim.cache import array_key, cached_array
 from scenesim.errors import ParameterError
 from scenesim.validate import check_choice, check_fs, check_int
 
@@ -260,15 +261,35 @@ def _babble(n: int, fs: int, rng: np.random.Generator, pool: Sequence[SpeechPool
     return x, tuple(parts)
 
 
+#: Seed of built-in talker ``k`` in the babble bank is ``BABBLE_BANK_SEED + k``.
+BABBLE_BANK_SEED = 1000
+
+
 @functools.lru_cache(maxsize=4)
 def _artificial_babble_bank(fs: int) -> tuple[SpeechPoolItem, ...]:
-    """One :data:`BABBLE_BANK_S`-second clip per built-in talker (seed 1000 + index)."""
-    bank = []
-    for k, talker in enumerate(TALKERS):
-        voice, _ = artificial_voice(BABBLE_BANK_S, fs=fs, seed=1000 + k, talker=talker)
-        voice.setflags(write=False)
-        bank.append(SpeechPoolItem(talker.name, f"artificial-voice:{talker.name}:seed={1000 + k}", voice))
-    return tuple(bank)
+    """One :data:`BABBLE_BANK_S`-second clip per built-in talker (seed ``BABBLE_BANK_SEED`` + index).
+
+    Deterministic and slow (~2 s), so the stacked bank ``(n_talkers, n_samples)`` also goes
+    through :func:`scenesim.cache.cached_array` (on disk when ``$SCENESIM_CACHE`` is set),
+    keyed by everything it depends on: ``fs``, :data:`BABBLE_BANK_S`, the talkers, their
+    seeds and :data:`~data_recipes.artificial_voice.VOICE_VERSION`.
+    """
+    seeds = [BABBLE_BANK_SEED + k for k in range(len(TALKERS))]
+
+    def compute() -> np.ndarray:
+        return np.stack([
+            artificial_voice(BABBLE_BANK_S, fs=fs, seed=seed, talker=talker)[0]
+            for seed, talker in zip(seeds, TALKERS)
+        ])
+
+    key = array_key("babble-bank", VOICE_VERSION, fs=fs, duration_s=BABBLE_BANK_S, talkers=TALKERS,
+                    seeds=seeds)
+    voices = cached_array(key, compute)
+    voices.setflags(write=False)
+    return tuple(
+        SpeechPoolItem(talker.name, f"artificial-voice:{talker.name}:seed={seed}", voice)
+        for seed, talker, voice in zip(seeds, TALKERS, voices)
+    )
 
 
 def _pick_voices(pool: Sequence[SpeechPoolItem], rng: np.random.Generator) -> list[SpeechPoolItem]:

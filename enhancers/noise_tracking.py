@@ -28,6 +28,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import lfilter
 
 from enhancers.filterbank import FilterBank
+from scenesim.cache import array_key, cached_array
 
 __all__ = [
     "MS1994State",
@@ -145,8 +146,22 @@ def _ms1994_one_frame(s, state: MS1994State, *, alpha: float, sub_len: int):
     return P[None, :], Pmin[None, :], new
 
 
+#: Version of :func:`calibrate_omin`'s output.  Bump it whenever a change to the Monte
+#: Carlo, the filter bank or :func:`ms1994_step` changes the values it returns: it is part of
+#: the disk-cache key, so stale cached files then stop matching.
+OMIN_VERSION = 1
+
+
 @functools.lru_cache(maxsize=64)
 def _calibrate_cached(alpha, n_sub, sub_len, frame_len, hop, window, n_frames, seed):
+    key = array_key("ms1994-omin", OMIN_VERSION, alpha=alpha, n_sub=n_sub, sub_len=sub_len,
+                    frame_len=frame_len, hop=hop, window=window, n_frames=n_frames, seed=seed)
+    omin = cached_array(key, lambda: _calibrate(alpha, n_sub, sub_len, frame_len, hop, window, n_frames, seed))
+    omin.setflags(write=False)
+    return omin
+
+
+def _calibrate(alpha, n_sub, sub_len, frame_len, hop, window, n_frames, seed) -> np.ndarray:
     fb = FilterBank(frame_len=frame_len, hop=hop, window=window)
     rng = np.random.default_rng(seed)
     x = rng.standard_normal((1, (n_frames + 1) * hop))
@@ -163,7 +178,6 @@ def _calibrate_cached(alpha, n_sub, sub_len, frame_len, hop, window, n_frames, s
     omin[0] = 1.0 / mean[0]
     if frame_len % 2 == 0:
         omin[-1] = 1.0 / mean[-1]
-    omin.setflags(write=False)
     return omin
 
 
@@ -176,7 +190,9 @@ def calibrate_omin(
     Monte Carlo: ``n_frames`` frames of seeded white noise through the same filter bank,
     smoother and minimum search; the expectation is the mean over time (after the first
     ``W + 2`` sub-windows) and over the interior bins (DC and Nyquist get their own
-    value).  Cached per argument set (``functools.lru_cache``), about 50 ms per call.
+    value).  Cached per argument set (``functools.lru_cache`` in the process, and on disk
+    through :func:`scenesim.cache.cached_array` when ``$SCENESIM_CACHE`` is set; the key
+    holds every argument and :data:`OMIN_VERSION`); about 50-300 ms per computation.
     """
     return _calibrate_cached(float(alpha), int(n_sub), int(sub_len), int(frame_len), int(hop), str(window),
                              int(n_frames), int(seed))
