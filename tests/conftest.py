@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +13,12 @@ import pytest
 
 # Headless plots everywhere in the suite.
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# The disk cache (scenesim.cache, data recipes) goes to a fresh directory for the whole
+# session, never to the user's ~/.cache/scenesim -- unless the tester chose one.
+if "SCENESIM_CACHE" not in os.environ:
+    os.environ["SCENESIM_CACHE"] = tempfile.mkdtemp(prefix="scenesim-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["SCENESIM_CACHE"], ignore_errors=True)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DIR = Path(os.environ.get("SCENESIM_SHARED", REPO_ROOT.parent / "shared"))

@@ -10,6 +10,15 @@ from __future__ import annotations
 
 import os
 
+# Deterministic warm-up arrays (babble bank, bias-compensation tables, RIRs) are cached on
+# disk for the command-line app only: library calls stay memory-only unless the caller sets
+# $SCENESIM_CACHE.  SCENESIM_CACHE= (empty) disables the disk cache; a user's own value wins.
+os.environ.setdefault(
+    "SCENESIM_CACHE",
+    os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+                 "scenesim"),
+)
+
 # Our parallelism is one process per worker; a multi-threaded BLAS in each would
 # oversubscribe the cores.  Set before numpy is first imported; a user's own setting wins.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
