@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import sqlite3
 
+import numpy as np
 import pytest
 
+from benchmarks import evaluate
 from benchmarks.store import COLUMNS, CONTRACT_COLUMNS, ResultStore
 from scenesim.errors import DataError
 
@@ -39,7 +41,6 @@ def test_schema_has_the_contract_columns_with_their_types(tmp_path):
 
 def test_every_evaluate_column_is_stored():
     """evaluate_enhancer's row keys all have a column (nothing silently dropped)."""
-    evaluate = pytest.importorskip("benchmarks.evaluate")
     missing = set(evaluate.ROW_COLUMNS) - set(COLUMNS)
     assert not missing
 
@@ -69,7 +70,6 @@ def test_unique_constraint_holds_against_plain_insert(tmp_path):
 
 
 def test_unknown_keys_ignored_missing_are_null_numpy_converted(tmp_path):
-    np = pytest.importorskip("numpy")
     with ResultStore.open(tmp_path) as store:
         store.write_rows([_row(not_a_column=3, snr_out_db=np.float64(4.5), seed=np.int64(7), snr_i_db=float("nan"))])
         (row,) = store.rows()
