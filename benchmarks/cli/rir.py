@@ -133,7 +133,11 @@ def run(args) -> int:
         print(f"pyroomacoustics 0.10.1 cross-check (max_order {max_order}, {check.n_images} images):")
         print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
         print(f"  argmax equal        {check.argmax_equal}")
-        print(f"  inter-mic delay err {check.inter_mic_delay_error_samples:.2e} samples")
+        err = check.inter_mic_delay_error_samples
+        if err == err:  # NaN with a single mic: there is no inter-mic delay to compare
+            print(f"  inter-mic delay err {err:.2e} samples")
+        else:
+            print("  inter-mic delay err n/a (needs two or more mics)")
         print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
               f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
     for path in written:
