@@ -29,6 +29,7 @@ import math
 import os
 import tempfile
 import threading
+import warnings
 from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
@@ -150,7 +151,8 @@ def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None)
     Looks ``key`` up in the in-memory LRU, then in ``<dir>/<key>.npy`` (``cache_dir``, else
     ``$SCENESIM_CACHE``; no disk level when both are unset or empty), and only then calls
     ``compute()``, whose result is stored in both levels (the file written atomically).
-    An unreadable or truncated file is a miss: it is recomputed and rewritten.
+    An unreadable or truncated file is a miss: it is recomputed and rewritten.  A directory
+    that cannot be written (read-only, full) gives a ``RuntimeWarning``, not an error.
 
     Parameters
     ----------
@@ -189,7 +191,11 @@ def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None)
     value.setflags(write=False)
     _remember(key, value)
     if path is not None:
-        _save_atomic(path, value)
+        try:
+            _save_atomic(path, value)
+        except OSError as exc:  # read-only or full disk: the cache is an optimisation, go on
+            warnings.warn(f"scenesim: cannot write the disk cache in {directory} ({exc.strerror or exc}); "
+                          "continuing with the memory cache only", RuntimeWarning, stacklevel=2)
     return value.copy()
 
 

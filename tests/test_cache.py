@@ -73,6 +73,16 @@ def test_leftover_tmp_file_is_ignored(tmp_path):
     np.testing.assert_array_equal(np.load(tmp_path / f"{key}.npy"), np.ones(3))
 
 
+def test_unwritable_cache_dir_warns_and_still_returns(tmp_path):
+    not_a_dir = tmp_path / "file"
+    not_a_dir.write_bytes(b"")
+    compute = _Counter(np.arange(3.0))
+    _fresh_process()
+    with pytest.warns(RuntimeWarning, match="cannot write the disk cache"):
+        out = cache.cached_array(cache.array_key("test-readonly", 1), compute, cache_dir=not_a_dir)
+    np.testing.assert_array_equal(out, compute.value)
+
+
 def test_no_disk_cache_when_env_is_empty(tmp_path, monkeypatch):
     monkeypatch.setenv("SCENESIM_CACHE", "")
     monkeypatch.chdir(tmp_path)
