@@ -337,6 +337,15 @@ class GatedElkoBeamformer(ElkoBeamformer):
         gate_floor_s: float = 1.0
 
 
+@dataclass(frozen=True)
+class _FixedParams(_DifferentialParams):
+    beta: float = 0.0
+
+    def __post_init__(self):
+        self._check_common()
+        check_range("beta", self.beta, 0.0, 1.0)
+
+
 class _FixedBase(_DifferentialBase):
     def _initial_beta(self) -> float:
         return float(self.params.beta)
@@ -353,12 +362,8 @@ class FixedCardioid(_FixedBase):
     summary: ClassVar[str] = "fixed differential cardioid (beta 0), look-direction equalised"
 
     @dataclass(frozen=True)
-    class Params(_DifferentialParams):
+    class Params(_FixedParams):
         beta: float = 0.0
-
-        def __post_init__(self):
-            self._check_common()
-            check_range("beta", self.beta, 0.0, 1.0)
 
 
 class FixedHypercardioid(_FixedBase):
@@ -369,9 +374,5 @@ class FixedHypercardioid(_FixedBase):
     summary: ClassVar[str] = "fixed differential hypercardioid (beta 0.5), look-direction equalised"
 
     @dataclass(frozen=True)
-    class Params(_DifferentialParams):
+    class Params(_FixedParams):
         beta: float = 0.5
-
-        def __post_init__(self):
-            self._check_common()
-            check_range("beta", self.beta, 0.0, 1.0)

@@ -264,16 +264,17 @@ class SpectralSubtractionMS2001(_SubtractionBase):
 
     @dataclass(frozen=True)
     class Params(_SubtractionParams):
-        taca: float = 0.0449
-        tamax: float = 0.392
-        taminh: float = 0.0133
-        tpfall: float = 0.064
-        tbmax: float = 0.0717
-        qeqmin: float = 2.0
-        qeqmax: float = 14.0
-        av: float = 2.12
-        td: float = 1.536
-        nu: int = 8
+        # Defaults are the tracker's own (VOICEBOX estnoisem), written once in MS2001Config.
+        taca: float = MS2001Config.taca
+        tamax: float = MS2001Config.tamax
+        taminh: float = MS2001Config.taminh
+        tpfall: float = MS2001Config.tpfall
+        tbmax: float = MS2001Config.tbmax
+        qeqmin: float = MS2001Config.qeqmin
+        qeqmax: float = MS2001Config.qeqmax
+        av: float = MS2001Config.av
+        td: float = MS2001Config.td
+        nu: int = MS2001Config.nu
 
         def __post_init__(self):
             self._check_common()
