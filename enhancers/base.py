@@ -171,6 +171,18 @@ class Result:
         return self._replay(component)
 
 
+def check_component(component, shape: tuple[int, int]) -> np.ndarray:
+    """Validate a ``Result.replay`` component: finite, shaped exactly like the processed input.
+
+    Returns a float64 array (a copy only when the dtype changes); raises
+    :class:`ParameterError` naming ``component`` otherwise.
+    """
+    c = check_signal(component, name="component", n_channels=shape[0], min_samples=0)
+    if c.shape != tuple(shape):
+        raise ParameterError("component", component, f"shape {tuple(shape)} like the processed input")
+    return c
+
+
 class Enhancer:
     """Base class for enhancers; subclasses set ``name``, ``version``, ``Params`` and implement
     ``tags`` and ``_process`` (and ``_init_state`` / ``_process_block`` when streaming).

@@ -20,19 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from scenesim.errors import ParameterError
-from scenesim.validate import check_finite_number, check_int, check_positive, check_signal
+from scenesim.validate import check_finite_number, check_int, check_positive
 
 __all__ = ["Passthrough", "DelayAndSum", "fractional_delay_fir"]
-
-
-def _check_component(component, shape: tuple[int, int]) -> np.ndarray:
-    """Validate a replay component: finite, shaped like the processed input."""
-    c = check_signal(component, name="component", n_channels=shape[0], min_samples=0)
-    if c.shape != shape:
-        raise ParameterError("component", component, f"shape {shape} like the processed input")
-    return c
 
 
 class Passthrough(Enhancer):
@@ -52,7 +44,7 @@ class Passthrough(Enhancer):
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
         def replay(component) -> np.ndarray:
-            return _check_component(component, x.shape)[0:1].copy()
+            return check_component(component, x.shape)[0:1].copy()
 
         return Result(output=x[0:1].copy(), trace={}, _replay=replay)
 
@@ -170,7 +162,7 @@ class DelayAndSum(Enhancer):
         h = self.filters(fs)
 
         def replay(component) -> np.ndarray:
-            return self._apply(_check_component(component, x.shape), h)
+            return self._apply(check_component(component, x.shape), h)
 
         return Result(output=self._apply(x, h), trace={}, _replay=replay)
 

@@ -41,11 +41,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from enhancers.registry import get_spec
 from scenesim.errors import ParameterError
 from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS
-from scenesim.validate import check_positive, check_signal
+from scenesim.validate import check_positive
 
 __all__ = ["Chain", "ChainParams", "EbSs", "chain_class", "hop_of"]
 
@@ -316,9 +316,7 @@ class Chain(Enhancer):
         }
 
         def replay(component) -> np.ndarray:
-            y = check_signal(component, name="component", n_channels=x.shape[0], min_samples=0)
-            if y.shape != x.shape:
-                raise ParameterError("component", component, f"shape {x.shape} like the processed input")
+            y = check_component(component, x.shape)
             for result in results:
                 y = result.replay(y)
             return y

@@ -45,7 +45,7 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d
 from scipy.signal import lfilter
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from enhancers.differential import DifferentialFilters, branch_signals, design_filters
 from scenesim.errors import ParameterError
 from scenesim.validate import check_choice, check_int, check_positive, check_range
@@ -150,9 +150,7 @@ class _DifferentialBase(Enhancer):
         beta_seq.setflags(write=False)
 
         def replay(component) -> np.ndarray:
-            comp, _ = self.check_input(component, fs)
-            if comp.shape[-1] != n:
-                raise ParameterError("component", comp.shape, f"shape (2, {n}) like the processed input")
+            comp = check_component(component, (2, n))
             ext = np.concatenate([np.zeros((2, f.history)), comp], axis=-1)
             cF, cB, _ = branch_signals(ext, f, n)
             y = cF - beta_seq * cB

@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from enhancers.filterbank import FilterBank, FilterBankState
 from enhancers.noise_tracking import (
     MS1994State,
@@ -171,9 +171,7 @@ class _SubtractionBase(Enhancer):
         gain.setflags(write=False)
 
         def replay(component) -> np.ndarray:
-            comp, _ = self.check_input(component, fs)
-            if comp.shape[-1] != n:
-                raise ParameterError("component", comp.shape, f"shape (1, {n}) like the processed input")
+            comp = check_component(component, (1, n))
             Xc = fb.analyze(comp)
             return fb.synthesize(gain[None] * Xc, n)
 
