@@ -404,6 +404,10 @@ _BUILTINS = (
     ("ss", "enhancers.ss:SpectralSubtraction"),
     ("ss-ms2001", "enhancers.ss:SpectralSubtractionMS2001"),
     ("eb-ss", "enhancers.chain:EbSs"),
+    ("eb-subband", "enhancers.subband_eb:SubbandElkoBeamformer"),
+    ("mic-calibration", "enhancers.mic_calibration:MicCalibration"),
+    ("eb-robust", "enhancers.robust_eb:RobustElkoBeamformer"),
+    ("eb-robust-ss", "enhancers.robust_eb:EbRobustSs"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)

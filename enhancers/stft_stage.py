@@ -1,0 +1,163 @@
+"""Shared machinery of the STFT-domain two-mic enhancers (sub-band EB, mic calibration, robust EB).
+
+Every such enhancer analyses its input with the WOLA filter bank of
+:mod:`enhancers.filterbank` (16 ms Hamming, 50 % overlap at 16 kHz by default), processes
+the complete frames with a pure step ``(Y, state, record) = frames(X, state)`` and
+resynthesises.  ``record`` holds the per-frame quantities the step adapted (beta per bin,
+rear-mic correction per bin, EQ gain per bin): with them fixed, the operation is linear,
+so ``Result.replay`` analyses a component, applies the same record and resynthesises
+(exact shadow filtering, algorithms.md section 8).  Batch processing runs the very step
+used for streaming on the whole signal, so batch equals streaming for every block size.
+
+Latency: ``frame_len - 1`` samples (the filter bank's).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+from scipy.signal import lfilter
+
+from enhancers.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.filterbank import FilterBank, FilterBankState
+from scenesim.errors import ParameterError
+from scenesim.validate import check_int, check_positive
+
+__all__ = ["StftEnhancer", "StftParams", "bin_omega", "smooth_frames"]
+
+TINY = 1e-300
+
+
+@dataclass(frozen=True)
+class StftParams(Params):
+    """Geometry and filter-bank fields shared by the STFT-domain two-mic enhancers."""
+
+    spacing_m: float = 0.0214
+    c_mps: float = 343.0
+    frame_len: int = 256
+    hop: int = 128
+    window: str = "hamming"
+
+    def _check_stft(self):
+        check_positive("spacing_m", self.spacing_m)
+        check_positive("c_mps", self.c_mps)
+        n = check_int("frame_len", self.frame_len, minimum=16, maximum=8192)
+        check_int("hop", self.hop, minimum=1, maximum=n)
+        if n % self.hop:
+            raise ParameterError("hop", self.hop, f"a divisor of frame_len={n}")
+        _filterbank(self.frame_len, self.hop, self.window)  # validates the window name and overlap
+
+
+@functools.lru_cache(maxsize=32)
+def _filterbank(frame_len: int, hop: int, window: str) -> FilterBank:
+    return FilterBank(frame_len=frame_len, hop=hop, window=window)
+
+
+def bin_omega(frame_len: int) -> np.ndarray:
+    """Normalised angular frequency of each rfft bin, ``2 pi k / N`` (rad/sample), ``(N/2 + 1,)``."""
+    return 2.0 * np.pi * np.arange(frame_len // 2 + 1) / frame_len
+
+
+def smooth_frames(x: np.ndarray, lam: float, prev: np.ndarray) -> np.ndarray:
+    """One-pole average over frames (axis 0): ``P[l] = lam P[l-1] + (1 - lam) x[l]``, ``P[-1] = prev``.
+
+    ``x`` is ``(F, ...)``, ``prev`` the last value of the previous call (``x.shape[1:]``).
+    Returns ``P`` with ``x``'s shape (``F = 0`` gives an empty array).
+    """
+    if x.shape[0] == 0:
+        return x.copy()
+    zi = (lam * np.asarray(prev))[None]
+    y, _ = lfilter([1.0 - lam], [1.0, -lam], x, axis=0, zi=zi)
+    return y
+
+
+@dataclass
+class StftState:
+    """Streaming state: the filter bank's and the algorithm's (replaced, never mutated)."""
+
+    fb: FilterBankState
+    algo: Any
+    fs: int
+
+
+class StftEnhancer(Enhancer):
+    """Base of the STFT-domain two-mic enhancers; subclasses implement the frame step.
+
+    Subclass hooks
+    --------------
+    ``_algo_init(fs, n_bins)`` -> algorithm state.
+    ``_frames(X, algo, fs)`` with ``X`` ``(channels_in, F, K)`` -> ``(Y (channels_out, F, K), algo, record)``;
+    ``record`` is a dict of arrays whose first axis is the frame.
+    ``_apply(record, X, fs)`` -> ``Y``: the same linear operation for a component's frames.
+    ``_trace(record)`` -> the ``Result.trace`` dict.
+    """
+
+    channels_out: ClassVar[int] = 1
+    Params: ClassVar[type[Params]] = StftParams
+
+    @property
+    def filterbank(self) -> FilterBank:
+        p = self.params
+        return _filterbank(int(p.frame_len), int(p.hop), p.window)
+
+    @property
+    def hop(self) -> int:
+        """Frame hop in samples (the conformance suite streams in blocks of it)."""
+        return int(self.params.hop)
+
+    def delay_samples(self, fs: int) -> float:
+        """Inter-mic travel time ``T fs = spacing_m fs / c_mps`` in samples."""
+        return float(self.params.spacing_m) / float(self.params.c_mps) * fs
+
+    @functools.cached_property
+    def tags(self) -> Tags:  # params are frozen, so the tags never change (cached: read per block)
+        return Tags(channels_in=2, channels_out=self.channels_out, needs_geometry=True, streaming=True,
+                    latency_samples=int(self.params.frame_len) - 1)
+
+    # -- hooks ---------------------------------------------------------------------------
+    def _algo_init(self, fs: int, n_bins: int):  # pragma: no cover
+        raise NotImplementedError
+
+    def _frames(self, X: np.ndarray, algo, fs: int):  # pragma: no cover
+        raise NotImplementedError
+
+    def _apply(self, record: dict, X: np.ndarray, fs: int) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def _trace(self, record: dict) -> dict:
+        return {}
+
+    # -- streaming and batch ------------------------------------------------------------------
+    def _init_state(self, fs: int) -> StftState:
+        fb = self.filterbank
+        # analysis fields (tail, phase) for the 2 inputs, synthesis fields (ola, queue) for the outputs
+        ana, syn = fb.init_state(2), fb.init_state(self.channels_out)
+        fbs = FilterBankState(tail=ana.tail, phase=ana.phase, ola=syn.ola, queue=syn.queue)
+        return StftState(fb=fbs, algo=self._algo_init(fs, fb.n_bins), fs=fs)
+
+    def _step(self, block: np.ndarray, state: StftState):
+        fb = self.filterbank
+        X, fbs = fb.analysis_step(block, state.fb)
+        Y, algo, record = self._frames(X, state.algo, state.fs)
+        out, fbs = fb.synthesis_step(Y, block.shape[-1], fbs)
+        return out, StftState(fb=fbs, algo=algo, fs=state.fs), record
+
+    def _process_block(self, block, state):
+        out, new, _ = self._step(block, state)
+        return out, new
+
+    def _process(self, x: np.ndarray, fs: int) -> Result:
+        out, _, record = self._step(x, self._init_state(fs))
+        fb = self.filterbank
+        n = x.shape[-1]
+        for value in record.values():
+            value.setflags(write=False)
+
+        def replay(component) -> np.ndarray:
+            comp = check_component(component, (2, n))
+            return fb.synthesize(self._apply(record, fb.analyze(comp), fs), n)
+
+        return Result(output=out, trace=self._trace(record), _replay=replay)
