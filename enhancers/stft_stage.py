@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from scipy.ndimage import minimum_filter1d
 from scipy.signal import lfilter
 
 from enhancers.base import Enhancer, Params, Result, Tags, check_component
@@ -26,7 +27,7 @@ from enhancers.filterbank import FilterBank, FilterBankState
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_positive
 
-__all__ = ["StftEnhancer", "StftParams", "bin_omega", "smooth_frames"]
+__all__ = ["StftEnhancer", "StftParams", "bin_omega", "ratio_gate", "smooth_frames"]
 
 TINY = 1e-300
 
@@ -72,6 +73,36 @@ def smooth_frames(x: np.ndarray, lam: float, prev: np.ndarray) -> np.ndarray:
     zi = (lam * np.asarray(prev))[None]
     y, _ = lfilter([1.0 - lam], [1.0, -lam], x, axis=0, zi=zi)
     return y
+
+
+def ratio_gate(cF, cB, *, prev_f, prev_b, hist, gate_db: float, lam: float, n_window: int):
+    """Per-bin "frontal source dominates" detector (the rule of ``eb-gated``, per bin).
+
+    ``r = 10 log10(P_F / P_B)`` of the one-pole smoothed (``lam`` per frame) powers of the
+    forward/backward cardioids ``cF``, ``cB`` ``(F, K)``; True where
+    ``r > min(floor, 0) + gate_db``, ``floor`` = running minimum of ``r`` over the last
+    ``n_window`` frames (0: no floor, reference 0 dB).  A rear source gives ``r < 0``, a
+    diffuse field ~0 dB, a frontal talker ``r > 0``.
+
+    Returns ``(frozen (F, K) bool, (last P_F, last P_B, new hist))``; ``hist`` is the last
+    ``n_window - 1`` ratios (linear, ``P_F / P_B``) ``(n_window - 1, K)`` or None.
+    """
+    pf = smooth_frames(cF.real**2 + cF.imag**2, lam, prev_f)
+    pb = smooth_frames(cB.real**2 + cB.imag**2, lam, prev_b)
+    # compared in the linear domain (monotone, so the running minimum is the same): no log per bin
+    r = (pf + TINY) / (pb + TINY)  # silence: ratio 1 (0 dB), never NaN
+    ref = np.ones_like(r)
+    if n_window > 1:
+        if hist is None:
+            hist = np.full((n_window - 1, r.shape[1]), np.inf)
+        full = np.concatenate([hist, r], axis=0)
+        # causal running minimum over the last n_window frames (origin shifts the centred window)
+        floor = minimum_filter1d(full, n_window, axis=0, origin=(n_window - 1) // 2, mode="constant", cval=np.inf)
+        ref = np.minimum(floor[n_window - 1:], 1.0)
+        hist = full[full.shape[0] - (n_window - 1):].copy()
+    elif n_window == 1:
+        ref = np.minimum(r, 1.0)
+    return r > ref * 10.0 ** (gate_db / 10.0), (pf[-1].copy(), pb[-1].copy(), hist)
 
 
 @dataclass

@@ -53,10 +53,16 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from scipy.ndimage import minimum_filter1d
 
 from enhancers.eq import look_eq_gain
-from enhancers.stft_stage import TINY, StftEnhancer, StftParams, bin_omega, smooth_frames
+from enhancers.stft_stage import (
+    TINY,
+    StftEnhancer,
+    StftParams,
+    bin_omega,
+    ratio_gate,
+    smooth_frames,
+)
 from scenesim.errors import ParameterError
 from scenesim.validate import check_range
 
@@ -83,7 +89,7 @@ class SubbandState:
     p_1: np.ndarray
     g_f: np.ndarray
     g_b: np.ndarray
-    g_hist: np.ndarray | None = None  # (n_window - 1, K) last gate ratios (dB)
+    g_hist: np.ndarray | None = None  # (n_window - 1, K) last gate ratios P_F / P_B (linear)
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -93,21 +99,9 @@ def subband_init(n_bins: int, beta0: float) -> SubbandState:
 
 def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_window: int):
     """Per-bin gate: True where frozen; returns ``(frozen (F, K), state changes)``."""
-    pf = smooth_frames(cF.real**2 + cF.imag**2, lam, state.g_f)
-    pb = smooth_frames(cB.real**2 + cB.imag**2, lam, state.g_b)
-    r = 10.0 * np.log10((pf + TINY) / (pb + TINY))  # silence: 0 dB, never NaN
-    changes = {"g_f": pf[-1].copy(), "g_b": pb[-1].copy()}
-    ref = np.zeros_like(r)
-    if n_window > 1:
-        hist = np.full((n_window - 1, r.shape[1]), np.inf) if state.g_hist is None else state.g_hist
-        full = np.concatenate([hist, r], axis=0)
-        # causal running minimum over the last n_window frames (origin shifts the centred window)
-        floor = minimum_filter1d(full, n_window, axis=0, origin=(n_window - 1) // 2, mode="constant", cval=np.inf)
-        ref = np.minimum(floor[n_window - 1:], 0.0)
-        changes["g_hist"] = full[full.shape[0] - (n_window - 1):].copy()
-    elif n_window == 1:
-        ref = np.minimum(r, 0.0)
-    return r > ref + gate_db, changes
+    frozen, (g_f, g_b, g_hist) = ratio_gate(cF, cB, prev_f=state.g_f, prev_b=state.g_b, hist=state.g_hist,
+                                            gate_db=gate_db, lam=lam, n_window=n_window)
+    return frozen, {"g_f": g_f, "g_b": g_b, "g_hist": g_hist}
 
 
 def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float, eps: float,
