@@ -40,21 +40,33 @@ phone (near field at the mouth, or far field in the look half plane); its gain r
 not 1 in the near field and its propagation phase would be mistaken for mismatch, so the
 averages stop while it dominates.  From the *uncalibrated* forward/backward cardioids
 ``cF``, ``cB``: ``q = 10 log10(P_F / P_B)`` with one-pole smoothed powers (``gate_lam_cal``
-per frame, default 0.7 = 27 ms: fast enough to catch syllable onsets); diffuse noise gives
-~0 dB, a rear source < 0 dB, a frontal talker > 0 dB.  A bin is frozen where
-``q > min(floor, 0) + freeze_db`` (``floor``: running minimum of ``q`` over ``floor_s``,
-the rule of ``eb-gated``; default 1 dB above the 1-s floor), either for the bin itself or
-for the sum over ``fit_band_hz`` (which freezes the whole frame): a mismatch pulls every
-source's low-frequency ratio towards 0 dB, so the low bins cannot see the talker by
-themselves while the mid band can.  While frozen, ``r_hat`` holds.  The decisions do not
-depend on ``r_hat``, so they are vectorised; the averages are a loop over frames
-vectorised over bins.  ``r_hat`` is recomputed from the averages every ``estimate_every``
-frames (default 4 = 32 ms, counted from the stream start; it moves with time constant
-``tau_s`` anyway) and includes that frame; the frames in between use the last one.
+per frame, default 0.7 = 27 ms: fast enough to catch syllable onsets, whose leakage
+otherwise dominates the error); diffuse noise gives ~0 dB, a rear source < 0 dB, a frontal
+talker > 0 dB.  Frozen where ``q > min(floor, 0) + threshold`` (``floor``: running minimum of
+``q`` over ``floor_s`` = 1 s, the rule of ``eb-gated``), by either of two rules:
 
-Measured (tests/test_mic_calibration.py; 1 dB, 5 deg, high-pass corners 80/120 Hz, 8 s):
-in diffuse noise within 0.3 dB / 2.5 deg from 100 Hz to 4 kHz; with a far-field plane wave
-at 135 or 240 deg within 0.2 dB / 1 deg.
+* per bin, from the powers of the bin's neighbours 2 and 3 bins away (``freeze_db``, 2 dB);
+* for the band ``fit_band_hz`` (``freeze_band_db``, 1 dB), its sums leaving out the bin and
+  its two neighbours; this rule reaches the low bins, where a mismatch pulls every source's
+  ratio towards 0 dB so that they cannot see the talker by themselves.
+
+Why not the bin's own ratio: ``|cF|^2 - |cB|^2 = 4 sin(w T) Im(X2 conj(X1))``, so selecting
+frames by it selects on the very cross-spectrum being estimated and biases the phase
+(measured in diffuse noise: 6-7 deg at 1-4 kHz); the neighbours' noise is nearly
+independent of the bin's.  The price of a floor-relative rule: in stationary diffuse noise
+the ratio fluctuates above its 1-s minimum, so ~75 % of the bins are frozen and the
+estimate converges ~4x more slowly than ``tau_s`` (a slower floor smoother,
+``floor_lam_cal``, freezes less but lets speech leak: 7 dB less SNR-I at 135 deg with
+mismatch).  While frozen, ``r_hat`` holds.  The decisions do not depend on ``r_hat``, so
+they are vectorised; the averages are a loop over frames vectorised over bins.
+``r_hat`` is recomputed from the averages every ``estimate_every`` frames (default 4 = 32
+ms, counted from the stream start; it moves with time constant ``tau_s`` anyway) and
+includes that frame; the frames in between use the last one.
+
+Measured (tests/test_mic_calibration.py; 1 dB, 5 deg, high-pass corners 80/120 Hz, 8 s of
+white noise, per-bin worst case): in diffuse noise 0.13 dB / 1.1 deg from 100 Hz to 1 kHz,
+0.27 dB / 3.1 deg to 4 kHz; one far-field plane wave at 135 or 240 deg 0.17 dB / 1 deg from
+100 Hz to 7 kHz; a near-field talker at +10 dB for 4 s moves it by 0.07 dB / 0.5 deg.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the averages were frozen).
@@ -69,7 +81,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers.stft_stage import TINY, StftEnhancer, StftParams, bin_omega, ratio_gate
+from enhancers.stft_stage import (
+    TINY,
+    GateState,
+    StftEnhancer,
+    StftParams,
+    bin_omega,
+    gate_init,
+    power_ratio_gate,
+)
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_range
 
@@ -83,12 +103,8 @@ class CalibrationState:
     avg: np.ndarray          # complex (3, K)
     r_last: np.ndarray       # complex (K,) the estimate of the last update frame
     n_frames: int            # frames processed so far (decides the update frames)
-    q_f: np.ndarray          # (K,) smoothed power of the uncalibrated forward cardioid
-    q_b: np.ndarray          # (K,) ... and of the backward one
-    w_f: np.ndarray          # (1,) the same for the band sums
-    w_b: np.ndarray
-    q_hist: np.ndarray | None = None  # (n_window - 1, K) last freeze ratios P_F / P_B (linear)
-    w_hist: np.ndarray | None = None  # (n_window - 1, 1) last band ratios (linear)
+    q_bin: GateState         # the per-bin freeze rule's state
+    q_band: GateState        # the band freeze rule's state
 
 
 @dataclass(frozen=True)
@@ -102,8 +118,10 @@ class CalibrationParams(StftParams):
     estimate_every: int = 4
     max_gain_db: float = 6.0
     max_phase_deg: float = 30.0
-    freeze_db: float = 1.0
+    freeze_db: float = 2.0
+    freeze_band_db: float = 1.0
     gate_lam_cal: float = 0.7
+    floor_lam_cal: float | None = None
     floor_s: float = 1.0
 
     def _check_calibration(self):
@@ -120,14 +138,16 @@ class CalibrationParams(StftParams):
         check_range("max_gain_db", self.max_gain_db, 0.0, 40.0)
         check_range("max_phase_deg", self.max_phase_deg, 0.0, 180.0)
         check_range("freeze_db", self.freeze_db, -60.0, 60.0)
+        check_range("freeze_band_db", self.freeze_band_db, -60.0, 60.0)
+        if self.floor_lam_cal is not None:
+            check_range("floor_lam_cal", self.floor_lam_cal, 0.0, 1.0, hi_open=True)
         check_range("gate_lam_cal", self.gate_lam_cal, 0.0, 1.0, hi_open=True)
         check_range("floor_s", self.floor_s, 0.0, 60.0)
 
 
 def calibration_init(n_bins: int) -> CalibrationState:
-    z = np.zeros(n_bins)
     return CalibrationState(avg=np.zeros((3, n_bins), dtype=complex), r_last=np.ones(n_bins, dtype=complex),
-                            n_frames=0, q_f=z, q_b=z, w_f=z[:1], w_b=z[:1])
+                            n_frames=0, q_bin=gate_init(n_bins), q_band=gate_init(n_bins))
 
 
 def _band(p: CalibrationParams, fs: int) -> slice:
@@ -137,23 +157,37 @@ def _band(p: CalibrationParams, fs: int) -> slice:
     return slice(k_lo, max(k_hi, k_lo + 1) + 1)
 
 
+def _shift_sum(e: np.ndarray, offsets) -> np.ndarray:
+    """``sum_o e[:, k + o]`` over ``offsets`` (zero outside the bins), ``(F, K)``."""
+    m = max(abs(o) for o in offsets)
+    pad = np.pad(e, ((0, 0), (m, m)))
+    K = e.shape[1]
+    return sum(pad[:, m + o:m + o + K] for o in offsets)
+
+
 def _freeze(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, band: slice):
     """Bins where the averages stop (a frontal source dominates): ``(frozen (F, K), state changes)``.
 
-    Frozen where the bin's own cardioid ratio says so, or where the ratio of the band sums over
-    ``fit_band_hz`` does (the whole frame): a mismatch pulls every source's low-frequency ratio
-    towards 0 dB, so the low bins cannot see the talker by themselves, while the mid band can.
+    Two cardioid-ratio rules (see the module docstring), neither using the bin's own noise:
+    per bin from its neighbours 2 and 3 bins away (outside the Hamming main lobe), and for
+    the whole band ``fit_band_hz`` leaving out the bin and its two neighbours.
     """
     ph = np.exp(-1j * bin_omega(int(p.frame_len)) * delay)
     cF, cB = X1 - ph * X2, X2 - ph * X1
+    eF, eB = cF.real**2 + cF.imag**2, cB.real**2 + cB.imag**2
     n_window = int(math.ceil(float(p.floor_s) * fs / int(p.hop))) if p.floor_s > 0 else 0
-    rule = dict(gate_db=float(p.freeze_db), lam=float(p.gate_lam_cal), n_window=n_window)
-    per_bin, (q_f, q_b, q_hist) = ratio_gate(cF, cB, prev_f=state.q_f, prev_b=state.q_b, hist=state.q_hist, **rule)
-    eF = np.sqrt(np.sum(cF[:, band].real**2 + cF[:, band].imag**2, axis=1, keepdims=True))
-    eB = np.sqrt(np.sum(cB[:, band].real**2 + cB[:, band].imag**2, axis=1, keepdims=True))
-    frame, (w_f, w_b, w_hist) = ratio_gate(eF, eB, prev_f=state.w_f, prev_b=state.w_b, hist=state.w_hist, **rule)
-    changes = {"q_f": q_f, "q_b": q_b, "q_hist": q_hist, "w_f": w_f, "w_b": w_b, "w_hist": w_hist}
-    return per_bin | frame, changes
+    rule = dict(lam=float(p.gate_lam_cal), n_window=n_window,
+                floor_lam=None if p.floor_lam_cal is None else float(p.floor_lam_cal))
+    near = (-3, -2, 2, 3)
+    per_bin, q = power_ratio_gate(_shift_sum(eF, near), _shift_sum(eB, near), state=state.q_bin,
+                                  gate_db=float(p.freeze_db), **rule)
+    inband = np.zeros(eF.shape[1])
+    inband[band] = 1.0
+    local = (-1, 0, 1)
+    bF = eF[:, band].sum(axis=1, keepdims=True) - _shift_sum(eF * inband, local)
+    bB = eB[:, band].sum(axis=1, keepdims=True) - _shift_sum(eB * inband, local)
+    whole, w = power_ratio_gate(bF, bB, state=state.q_band, gate_db=float(p.freeze_band_db), **rule)
+    return per_bin | whole, {"q_bin": q, "q_band": w}
 
 
 def _propagation_slope(s21: np.ndarray, band: slice, max_slope: float) -> np.ndarray:
@@ -266,7 +300,10 @@ class MicCalibration(StftEnhancer):
     max_gain_db, max_phase_deg : clip of the estimate (default 6 dB, 30 deg).
     smooth_frac : the averaging band widens to ``+-smooth_frac k`` bins (default 0.06).
     estimate_every : frames between recomputations of ``r_hat`` (default 4).
-    freeze_db, gate_lam_cal, floor_s : freeze rule (default 1 dB above the 1-s floor; smoothing 0.7 per frame).
+    freeze_db, freeze_band_db : freeze thresholds of the per-bin and band rules (default 2 and 1 dB above
+        the 1-s floor).
+    gate_lam_cal, floor_lam_cal, floor_s : smoothing of the freeze ratios per frame (0.7), of the
+        floor's ratio (None: the same), and the floor's window (1 s).
 
     Examples
     --------

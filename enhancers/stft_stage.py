@@ -27,7 +27,8 @@ from enhancers.filterbank import FilterBank, FilterBankState
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_positive
 
-__all__ = ["StftEnhancer", "StftParams", "bin_omega", "ratio_gate", "smooth_frames"]
+__all__ = ["GateState", "StftEnhancer", "StftParams", "bin_omega", "gate_init", "power_ratio_gate", "ratio_gate",
+           "smooth_frames"]
 
 TINY = 1e-300
 
@@ -75,34 +76,68 @@ def smooth_frames(x: np.ndarray, lam: float, prev: np.ndarray) -> np.ndarray:
     return y
 
 
-def ratio_gate(cF, cB, *, prev_f, prev_b, hist, gate_db: float, lam: float, n_window: int):
+@dataclass(frozen=True)
+class GateState:
+    """State of :func:`power_ratio_gate`: last smoothed powers ``(K,)`` and the floor's history."""
+
+    pf: np.ndarray
+    pb: np.ndarray
+    sf: np.ndarray | None = None  # the floor's (slower) smoothed powers, when floor_lam is set
+    sb: np.ndarray | None = None
+    hist: np.ndarray | None = None  # (n_window - 1, K) last floor ratios P_F / P_B (linear)
+
+
+def gate_init(n_bins: int) -> GateState:
+    z = np.zeros(n_bins)
+    return GateState(pf=z, pb=z, sf=z, sb=z)
+
+
+def ratio_gate(cF, cB, **kwargs):
+    """:func:`power_ratio_gate` of the powers ``|cF|^2``, ``|cB|^2`` of two complex ``(F, K)`` arrays."""
+    return power_ratio_gate(cF.real**2 + cF.imag**2, cB.real**2 + cB.imag**2, **kwargs)
+
+
+def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_window: int,
+                     floor_lam: float | None = None, cap: float = 1.0):
     """Per-bin "frontal source dominates" detector (the rule of ``eb-gated``, per bin).
 
-    ``r = 10 log10(P_F / P_B)`` of the one-pole smoothed (``lam`` per frame) powers of the
-    forward/backward cardioids ``cF``, ``cB`` ``(F, K)``; True where
-    ``r > min(floor, 0) + gate_db``, ``floor`` = running minimum of ``r`` over the last
-    ``n_window`` frames (0: no floor, reference 0 dB).  A rear source gives ``r < 0``, a
-    diffuse field ~0 dB, a frontal talker ``r > 0``.
+    ``r = 10 log10(P_F / P_B)`` of the one-pole smoothed (``lam`` per frame) powers ``eF``,
+    ``eB`` ``(F, K)`` of the forward/backward cardioids; True where
+    ``r > min(floor, 0) + gate_db``, ``floor`` = running minimum over the last ``n_window``
+    frames (0: no floor, reference 0 dB) of the same ratio, or, with ``floor_lam``, of the
+    ratio of powers smoothed more slowly (``floor_lam`` per frame): the minimum of a
+    fluctuating ratio sits below its mean, so a fast detector compared with the minimum of
+    its own fluctuations freezes stationary noise most of the time.  A rear source gives
+    ``r < 0``, a diffuse field ~0 dB, a frontal talker ``r > 0``.  (``cap``: the reference
+    is ``min(floor, cap)``.)
 
-    Returns ``(frozen (F, K) bool, (last P_F, last P_B, new hist))``; ``hist`` is the last
-    ``n_window - 1`` ratios (linear, ``P_F / P_B``) ``(n_window - 1, K)`` or None.
+    Returns ``(frozen (F, K) bool, new GateState)``.
     """
-    pf = smooth_frames(cF.real**2 + cF.imag**2, lam, prev_f)
-    pb = smooth_frames(cB.real**2 + cB.imag**2, lam, prev_b)
+    pf = smooth_frames(eF, lam, state.pf)
+    pb = smooth_frames(eB, lam, state.pb)
     # compared in the linear domain (monotone, so the running minimum is the same): no log per bin
     r = (pf + TINY) / (pb + TINY)  # silence: ratio 1 (0 dB), never NaN
-    ref = np.ones_like(r)
+    sf = sb = None
+    if floor_lam is None:
+        rf = r
+    else:
+        sf = smooth_frames(eF, floor_lam, state.sf)
+        sb = smooth_frames(eB, floor_lam, state.sb)
+        rf = (sf + TINY) / (sb + TINY)
+        sf, sb = sf[-1].copy(), sb[-1].copy()
+    ref = np.full_like(r, min(cap, 1.0))
+    hist = state.hist
     if n_window > 1:
         if hist is None:
             hist = np.full((n_window - 1, r.shape[1]), np.inf)
-        full = np.concatenate([hist, r], axis=0)
+        full = np.concatenate([hist, rf], axis=0)
         # causal running minimum over the last n_window frames (origin shifts the centred window)
         floor = minimum_filter1d(full, n_window, axis=0, origin=(n_window - 1) // 2, mode="constant", cval=np.inf)
-        ref = np.minimum(floor[n_window - 1:], 1.0)
+        ref = np.minimum(floor[n_window - 1:], cap)
         hist = full[full.shape[0] - (n_window - 1):].copy()
     elif n_window == 1:
-        ref = np.minimum(r, 1.0)
-    return r > ref * 10.0 ** (gate_db / 10.0), (pf[-1].copy(), pb[-1].copy(), hist)
+        ref = np.minimum(rf, cap)
+    return r > ref * 10.0 ** (gate_db / 10.0), GateState(pf=pf[-1].copy(), pb=pb[-1].copy(), sf=sf, sb=sb, hist=hist)
 
 
 @dataclass

@@ -57,9 +57,11 @@ import numpy as np
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import (
     TINY,
+    GateState,
     StftEnhancer,
     StftParams,
     bin_omega,
+    gate_init,
     ratio_gate,
     smooth_frames,
 )
@@ -87,21 +89,18 @@ class SubbandState:
     beta: np.ndarray
     p_b: np.ndarray
     p_1: np.ndarray
-    g_f: np.ndarray
-    g_b: np.ndarray
-    g_hist: np.ndarray | None = None  # (n_window - 1, K) last gate ratios P_F / P_B (linear)
+    gate: GateState
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
     z = np.zeros(n_bins)
-    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, g_f=z, g_b=z)
+    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, gate=gate_init(n_bins))
 
 
 def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_window: int):
     """Per-bin gate: True where frozen; returns ``(frozen (F, K), state changes)``."""
-    frozen, (g_f, g_b, g_hist) = ratio_gate(cF, cB, prev_f=state.g_f, prev_b=state.g_b, hist=state.g_hist,
-                                            gate_db=gate_db, lam=lam, n_window=n_window)
-    return frozen, {"g_f": g_f, "g_b": g_b, "g_hist": g_hist}
+    frozen, gate = ratio_gate(cF, cB, state=state.gate, gate_db=gate_db, lam=lam, n_window=n_window)
+    return frozen, {"gate": gate}
 
 
 def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float, eps: float,

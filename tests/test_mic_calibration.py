@@ -1,0 +1,100 @@
+"""Rear-mic self-calibration (``mic-calibration``) recovers a known complex mismatch and holds still
+while a near-field talker speaks.
+
+Oracle: the mismatch applied by ``mismatch.apply_mismatch`` (rear mic times 10^(g/20) e^{j phi} and
+first-order high-passes H(f) = jf/(fc + jf) per mic); its exact response ratio ``mismatch.rear_response``.
+Fields: ``scenesim.noise_fields.diffuse_noise`` (sinc coherence), ``signals.plane_wave_pair`` (exact
+delays), ``scenesim.freefield.point_source`` (near-field talker, 1/(4 pi R) and exact distances).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mismatch import apply_mismatch, rear_response
+from signals import FS, SPACING_M, plane_wave_pair
+
+from data_recipes.artificial_voice import artificial_voice
+from enhancers.registry import make
+from scenesim.freefield import point_source
+from scenesim.geometry import MicPair
+from scenesim.noise_fields import diffuse_noise
+
+MISMATCH = dict(gain_db=1.0, phase_deg=5.0, highpass_hz=(80.0, 120.0))
+F_HZ = np.arange(129) * FS / 256
+TRUTH = rear_response(F_HZ, **MISMATCH)
+
+
+def _final_estimate(trace, last_frames=125):
+    """Mean gain (dB) and phase (deg) per bin over the last second of frames."""
+    return (trace["rear_gain_db"][-last_frames:].mean(axis=0), trace["rear_phase_deg"][-last_frames:].mean(axis=0))
+
+
+def _errors(trace, lo_hz, hi_hz):
+    g, p = _final_estimate(trace)
+    band = (F_HZ >= lo_hz) & (F_HZ <= hi_hz)
+    return (np.max(np.abs(g[band] - 20 * np.log10(np.abs(TRUTH[band])))),
+            np.max(np.abs(p[band] - np.degrees(np.angle(TRUTH[band])))))
+
+
+@pytest.fixture(scope="module")
+def diffuse_trace():
+    rng = np.random.default_rng(21)
+    x = apply_mismatch(diffuse_noise(8 * FS, SPACING_M, fs=FS, rng=rng), fs=FS, **MISMATCH)
+    return make("mic-calibration").process(x, FS).trace
+
+
+@pytest.mark.parametrize("lo_hz, hi_hz, gain_tol_db, phase_tol_deg", [
+    (100, 1000, 0.2, 1.5), (1000, 4000, 0.35, 4.0), (4000, 7000, 0.5, 6.0)])
+def test_recovers_mismatch_in_diffuse_noise(diffuse_trace, lo_hz, hi_hz, gain_tol_db, phase_tol_deg):
+    """1 dB, 5 deg and high-pass corners 80/120 Hz (phase -20 deg at 100 Hz) in 8 s of white diffuse noise:
+    per-bin error of the last second's estimate within the stated tolerance (measured 0.13 dB / 1.1 deg,
+    0.27 dB / 3.1 deg, 0.37 dB / 4.9 deg; the phase of a diffuse field's cross-spectrum is noisier where its
+    coherence sinc(2fd/c) is low: 0.64 at 4 kHz, 0.14 at 7 kHz; and ~75 % of the bins are frozen by the
+    floor-relative rule in stationary noise, see the module docstring)."""
+    gain_err, phase_err = _errors(diffuse_trace, lo_hz, hi_hz)
+    assert gain_err <= gain_tol_db and phase_err <= phase_tol_deg
+
+
+@pytest.mark.parametrize("theta", [135, 240])
+def test_recovers_mismatch_from_one_far_field_source(theta):
+    """One far-field white-noise plane wave (the hard case: direction and mismatch share the cross-spectrum);
+    the propagation slope is removed: per-bin error within 0.2 dB / 1.2 deg from 100 Hz to 7 kHz (measured
+    0.17 dB / 0.97 deg, largest near the high-pass corners)."""
+    x = apply_mismatch(plane_wave_pair(np.random.default_rng(22).standard_normal(8 * FS), az_deg=theta),
+                       fs=FS, **MISMATCH)
+    gain_err, phase_err = _errors(make("mic-calibration").process(x, FS).trace, 100, 7000)
+    assert gain_err <= 0.2 and phase_err <= 1.2
+
+
+def _noise_then_talker():
+    """6 s of diffuse noise, then 4 s with a near-field talker (5 cm at 30 deg) 10 dB above it."""
+    rng = np.random.default_rng(23)
+    n_noise, n_talk = 6 * FS, 4 * FS
+    noise = diffuse_noise(n_noise + n_talk, SPACING_M, fs=FS, rng=rng)
+    pair = MicPair()
+    voice, _ = artificial_voice(4.0, fs=FS, seed=5)
+    talk = point_source(voice, pair, position_m=pair.source_position(30.0, 0.05), fs=FS)
+    talk *= np.sqrt(10 * np.mean(noise[0] ** 2) / np.mean(talk[0] ** 2))
+    x = noise.copy()
+    x[:, n_noise:] += talk
+    return apply_mismatch(x, fs=FS, **MISMATCH), n_noise // 128
+
+
+@pytest.mark.parametrize("freeze", [True, False])
+def test_estimate_stays_put_while_near_field_talker_speaks(freeze):
+    """Converged on noise, the estimate moves by <= 0.15 dB / 1 deg (300 Hz-4 kHz, mean over the band of the
+    absolute change; measured 0.07 dB / 0.45 deg) during 4 s of a near-field talker 5 cm away at +10 dB
+    (whose level differs by ~3 dB between the mics).  Control: with both freeze rules disabled it moves by
+    more than 0.5 dB (measured 1.6 dB)."""
+    x, onset = _noise_then_talker()
+    kw = {} if freeze else {"freeze_db": 60.0, "freeze_band_db": 60.0}
+    tr = make("mic-calibration", **kw).process(x, FS).trace
+    band = (F_HZ >= 300) & (F_HZ <= 4000)
+    g, p = tr["rear_gain_db"][:, band], tr["rear_phase_deg"][:, band]
+    dg = np.mean(np.abs(g[-1] - g[onset - 1]))
+    dp = np.mean(np.abs(p[-1] - p[onset - 1]))
+    if freeze:
+        assert dg <= 0.15 and dp <= 1.0
+    else:
+        assert dg > 0.5
