@@ -1,0 +1,109 @@
+"""``eb-robust`` (calibration + sub-band EB + noise-aware EQ) and ``eb-robust-ss``.
+
+Oracles: the white-noise-gain bound stated by :mod:`enhancers.eq` (output PSD of spatially white sensor
+noise <= 10^(eq_noise_gain_db/10) x one mic's, per bin), measured on the running enhancer; the mismatch
+applied by ``mismatch.apply_mismatch``; ``ss`` run on ``eb-robust``'s output for the cascade.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mismatch import apply_mismatch
+from signals import FS, plane_wave_pair
+
+from enhancers.chain import Chain
+from enhancers.eq import look_eq_gain, white_noise_factor
+from enhancers.registry import make
+
+NFFT = 256
+
+
+def _psd(y: np.ndarray) -> np.ndarray:
+    """Mean periodogram per rfft bin of 256-sample Hann frames (no overlap), ``(129,)``."""
+    frames = y[: (y.size // NFFT) * NFFT].reshape(-1, NFFT) * np.hanning(NFFT)
+    return np.mean(np.abs(np.fft.rfft(frames, axis=1)) ** 2, axis=0)
+
+
+@pytest.fixture(scope="module")
+def white():
+    return np.random.default_rng(31).standard_normal((2, 10 * FS))
+
+
+@pytest.mark.parametrize("name, kwargs", [("eb-robust", {}), ("eb-subband", {"eq_noise_gain_db": 9.0})])
+def test_self_noise_never_exceeds_the_eq_bound(name, kwargs, white):
+    """Spatially white noise alone (independent, unit variance per mic): the output PSD re one mic's stays
+    <= 9 dB + 0.5 dB (estimation spread of a 600-frame periodogram average) in every bin, and the bound
+    is reached (>= 8 dB somewhere; measured 9.0 / 9.2 dB), so it is what limits the output.  Control:
+    without the bound (eq_noise_gain_db=None) some bin exceeds 20 dB (measured 21.6 with eb-robust's
+    80 Hz high-pass, 27.3 without)."""
+    e = make(name, **kwargs)
+    y = e.process(white, FS).output[0, FS:]
+    ratio_db = 10 * np.log10(_psd(y)[1:-1] / _psd(white[0, FS:])[1:-1])
+    assert ratio_db.max() <= 9.5 and ratio_db.max() >= 8.0, ratio_db.max()
+    y_free = make(name, **{**kwargs, "eq_noise_gain_db": None}).process(white, FS).output[0, FS:]
+    assert (10 * np.log10(_psd(y_free)[1:-1] / _psd(white[0, FS:])[1:-1])).max() > 20.0
+
+
+def test_eq_bound_holds_for_every_beta():
+    """G(beta)^2 N(beta) <= 10^(nb/10) for random betas (N = 2(1 + beta^2 + 2 beta cos wT), the white-noise
+    output of cF - beta cB), and G equals the exact look inverse 1/|2 sin wT| where the bound does not bind."""
+    rng = np.random.default_rng(32)
+    w = 2 * np.pi * np.arange(129) / NFFT
+    beta = rng.uniform(0, 1, (50, 129))
+    g = look_eq_gain(beta, omega=w, delay_samples=0.998, freqs_hz=w / (2 * np.pi) * FS, max_gain_db=25.0,
+                     noise_gain_db=9.0)
+    n = 2 * (1 + beta**2 + 2 * beta * np.cos(w * 0.998))
+    np.testing.assert_allclose(white_noise_factor(beta, w * 0.998), n, rtol=1e-12)
+    assert np.all(g**2 * n <= 10**0.9 * (1 + 1e-12))
+    free = 1 / np.maximum(np.abs(2 * np.sin(w * 0.998)), 1e-30)
+    loose = (free**2 * n < 10**0.9) & (free < 10 ** (25 / 20))
+    assert loose.sum() > 1000
+    np.testing.assert_allclose(g[loose], np.broadcast_to(free, g.shape)[loose], rtol=1e-12)
+
+
+def test_broadband_white_noise_amplification_re_look_direction():
+    """A white plane wave from 0 deg plus white sensor noise 20 dB below it; each replayed alone, second half.
+    Amplification of the noise relative to the look direction: eb-robust <= 4.5 dB (measured 3.7; issue 12
+    target 6 dB), the fixed cardioid > 10 dB (measured 10.3 here; the issue quotes 10.8)."""
+    rng = np.random.default_rng(33)
+    n = 6 * FS
+    look = plane_wave_pair(rng.standard_normal(n), az_deg=0)
+    noise = 0.1 * rng.standard_normal((2, n))
+
+    def amplification(name):
+        r = make(name).process(look + noise, FS)
+        h = n // 2
+        a_noise = np.mean(r.replay(noise)[:, h:] ** 2) / np.mean(noise[0, h:] ** 2)
+        a_look = np.mean(r.replay(look)[:, h:] ** 2) / np.mean(look[0, h:] ** 2)
+        return 10 * np.log10(a_noise / a_look)
+
+    assert amplification("eb-robust") <= 4.5
+    assert amplification("cardioid") > 10.0
+
+
+def test_robust_nulls_a_mismatched_plane_wave(rng):
+    """White noise from 135 deg on mics with 1 dB / 5 deg / high-pass corners 80 and 120 Hz: after 6 s
+    (calibration converged), eb-robust's null is >= 30 dB over the last 2 s (look-direction replay over
+    output; measured 35.5), while eb-subband without calibration stays < 12 dB (measured 8.1: a real beta
+    cannot null a mismatch)."""
+    n = 8 * FS
+    mism = dict(gain_db=1.0, phase_deg=5.0, highpass_hz=(80.0, 120.0))
+    x = apply_mismatch(plane_wave_pair(rng.standard_normal(n), az_deg=135), fs=FS, **mism)
+    look = apply_mismatch(plane_wave_pair(rng.standard_normal(n), az_deg=0), fs=FS, **mism)
+
+    def depth(name):
+        r = make(name).process(x, FS)
+        return 10 * np.log10(np.mean(r.replay(look)[:, 6 * FS:] ** 2) / np.mean(r.output[:, 6 * FS:] ** 2))
+
+    assert depth("eb-robust") >= 30.0
+    assert depth("eb-subband") < 12.0
+
+
+def test_robust_ss_is_robust_then_ss(rng):
+    """eb-robust-ss == ss applied to eb-robust's output (to 1e-12); latency is the sum (2 x 255 samples)."""
+    x = rng.standard_normal((2, 8000))
+    e = make("eb-robust-ss")
+    assert isinstance(e, Chain) and e.tags.latency_samples == 2 * 255
+    y = make("ss").process(make("eb-robust").process(x, FS).output, FS).output
+    np.testing.assert_allclose(e.process(x, FS).output, y, rtol=0, atol=1e-12)
