@@ -6,7 +6,7 @@ For ``eb``, ``ss``, ``eb-ss`` (and ``ss-ms2001``, ``eb`` per-sample) on seeded 2
 16 kHz audio (a plane wave of noise plus independent sensor noise): batch ``process`` and
 streaming ``process_block`` with 8 ms blocks (128 samples).  Median of ``--runs`` runs after
 one warm-up run (which also fills the calibration caches).  Targets (issue 3): batch RTF
-<= 0.005, streaming RTF <= 0.05.  The peer column is a numpy ``rfft``/``irfft`` round trip
+<= 0.005, streaming RTF <= 0.05 (issue 12: batch RTF of ``eb-robust-ss`` <= 0.01).  The peer column is a numpy ``rfft``/``irfft`` round trip
 of the same audio timed in the same process, so a slow or busy machine shows as a large
 peer time too (timings on a shared 2-core machine are noisy).
 """
@@ -21,6 +21,8 @@ import numpy as np
 
 FS = 16000
 TARGET_BATCH, TARGET_STREAM = 0.005, 0.05
+#: Batch targets other than TARGET_BATCH (issue 12: the robust cascade runs three stages on one filter bank + SS).
+TARGET_BATCH_OF = {"eb-subband": 0.01, "eb-robust": 0.01, "eb-robust-ss": 0.01}
 
 
 def _make(name: str):
@@ -114,7 +116,8 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--block", type=int, default=128)
     args = ap.parse_args(argv)
-    names = [("eb", {}), ("ss", {}), ("eb-ss", {}), ("ss-ms2001", {}), ("eb", {"update": "sample"})]
+    names = [("eb", {}), ("ss", {}), ("eb-ss", {}), ("ss-ms2001", {}), ("eb", {"update": "sample"}),
+             ("eb-subband", {}), ("eb-robust", {}), ("eb-robust-ss", {})]
     rows = measure(names, seconds=args.seconds, runs=args.runs, block=args.block)
     print(f"Real-time factor on {args.seconds:g} s of 16 kHz audio, median of {args.runs} runs, "
           f"streaming blocks of {args.block} samples (targets: batch <= {TARGET_BATCH}, "
@@ -125,7 +128,7 @@ def main(argv=None) -> int:
           "| streaming RTF (cpu) | batch target | streaming target |")
     print("| --- | ---: | ---: | ---: | ---: | ---: | :---: | :---: |")
     for r in rows:
-        ok_b = "met" if r["batch"] <= TARGET_BATCH else "MISSED"
+        ok_b = "met" if r["batch"] <= TARGET_BATCH_OF.get(r["enhancer"], TARGET_BATCH) else "MISSED"
         ok_s = "met" if r["stream"] <= TARGET_STREAM else "MISSED"
         ratio = r["batch"] * args.seconds / max(r["peer_s"], 1e-12)
         print(f"| {r['enhancer']} | {r['batch']:.5f} | {r['batch_cpu']:.5f} | {ratio:.1f} | {r['stream']:.4f} "
