@@ -160,8 +160,9 @@ def _band(p: CalibrationParams, fs: int) -> slice:
 def _shift_sum(e: np.ndarray, offsets) -> np.ndarray:
     """``sum_o e[:, k + o]`` over ``offsets`` (zero outside the bins), ``(F, K)``."""
     m = max(abs(o) for o in offsets)
-    pad = np.pad(e, ((0, 0), (m, m)))
-    K = e.shape[1]
+    F, K = e.shape
+    pad = np.zeros((F, K + 2 * m))
+    pad[:, m:m + K] = e
     return sum(pad[:, m + o:m + o + K] for o in offsets)
 
 

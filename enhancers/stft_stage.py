@@ -76,6 +76,19 @@ def smooth_frames(x: np.ndarray, lam: float, prev: np.ndarray) -> np.ndarray:
     return y
 
 
+def _running_min(full: np.ndarray, n: int) -> np.ndarray:
+    """``out[i] = min(full[i : i + n])`` along axis 0 for the last ``len(full) - n + 1`` positions.
+
+    A few frames (streaming) take the minimum directly; long inputs use scipy's running
+    minimum (its centred window shifted to be causal by ``origin``).
+    """
+    n_out = full.shape[0] - n + 1
+    if n_out <= 4:
+        return np.stack([full[i:i + n].min(axis=0) for i in range(n_out)])
+    floor = minimum_filter1d(full, n, axis=0, origin=(n - 1) // 2, mode="constant", cval=np.inf)
+    return floor[n - 1:]
+
+
 @dataclass(frozen=True)
 class GateState:
     """State of :func:`power_ratio_gate`: last smoothed powers ``(K,)`` and the floor's history."""
@@ -131,9 +144,7 @@ def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_
         if hist is None:
             hist = np.full((n_window - 1, r.shape[1]), np.inf)
         full = np.concatenate([hist, rf], axis=0)
-        # causal running minimum over the last n_window frames (origin shifts the centred window)
-        floor = minimum_filter1d(full, n_window, axis=0, origin=(n_window - 1) // 2, mode="constant", cval=np.inf)
-        ref = np.minimum(floor[n_window - 1:], cap)
+        ref = np.minimum(_running_min(full, n_window), cap)
         hist = full[full.shape[0] - (n_window - 1):].copy()
     elif n_window == 1:
         ref = np.minimum(rf, cap)
