@@ -55,3 +55,102 @@ def subband_beta_reference(cF, cB, X1, *, mu: float, lam: float, eps: float, bet
             beta += mu * (y * np.conj(cB[f, k])).real / (pb + eps * p1 + 1e-300)
             beta = min(max(beta, 0.0), 1.0)
     return betas
+
+
+def _gate_on_powers(eF, eB, *, gate_db: float, lam: float, n_window: int) -> np.ndarray:
+    """``gate_reference`` on given powers (F, K): frozen where the smoothed ratio exceeds min(floor, 0) + gate_db."""
+    F, K = eF.shape
+    frozen = np.zeros((F, K), dtype=bool)
+    for k in range(K):
+        pf = pb = 0.0
+        ratios = []
+        for f in range(F):
+            pf = lam * pf + (1 - lam) * eF[f, k]
+            pb = lam * pb + (1 - lam) * eB[f, k]
+            ratios.append(10 * math.log10((pf + 1e-300) / (pb + 1e-300)))
+            ref = min(min(ratios[-n_window:]), 0.0) if n_window else 0.0
+            frozen[f, k] = ratios[-1] > ref + gate_db
+    return frozen
+
+
+def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[int, int], tau_frames: float,
+                          lam_gate: float, n_window: int, freeze_db: float, freeze_band_db: float,
+                          every: int, smooth_bins: int, smooth_frac: float, max_gain_db: float,
+                          max_phase_deg: float):
+    """``r_hat (F, K)`` of ``mic-calibration`` by loops over frames and bins (band = first, last bin).
+
+    Freeze: per bin from the cardioid powers of bins k-3, k-2, k+2, k+3; for the band from its sums
+    without bins k-1..k+1.  Averages S11, S22, S21 move by (1 - exp(-1/tau_frames)) where not frozen.
+    Every ``every``-th frame: slope = lag-one phase refined by the weighted fit a + b k + c/k (normal
+    equations with the 1e-9 ridge of the implementation, columns 1, k/k_hi, k_lo/k), clipped to
+    2 pi delay / N; S21 derotated; all three averaged over k +- max(smooth_bins, round(smooth_frac k));
+    gain sqrt(S22/S11) and phase clipped.
+    """
+    F, K = X1.shape
+    lo, hi = band
+    cF = np.empty((F, K), dtype=complex)
+    cB = np.empty((F, K), dtype=complex)
+    for k in range(K):
+        ph = np.exp(-1j * 2 * np.pi * k / frame_len * delay)
+        cF[:, k] = X1[:, k] - ph * X2[:, k]
+        cB[:, k] = X2[:, k] - ph * X1[:, k]
+    eF, eB = np.abs(cF) ** 2, np.abs(cB) ** 2
+    nF, nB = np.zeros((F, K)), np.zeros((F, K))
+    bF, bB = np.zeros((F, K)), np.zeros((F, K))
+    for f in range(F):
+        for k in range(K):
+            for o in (-3, -2, 2, 3):
+                if 0 <= k + o < K:
+                    nF[f, k] += eF[f, k + o]
+                    nB[f, k] += eB[f, k + o]
+            for j in range(lo, hi + 1):
+                if abs(j - k) > 1:
+                    bF[f, k] += eF[f, j]
+                    bB[f, k] += eB[f, j]
+    rule = dict(lam=lam_gate, n_window=n_window)
+    frozen = (_gate_on_powers(nF, nB, gate_db=freeze_db, **rule)
+              | _gate_on_powers(bF, bB, gate_db=freeze_band_db, **rule))
+    step = 1 - math.exp(-1 / tau_frames)
+    s = np.zeros((3, K), dtype=complex)
+    r_hat = np.ones((F, K), dtype=complex)
+    current = np.ones(K, dtype=complex)
+    for f in range(F):
+        for k in range(K):
+            if not frozen[f, k]:
+                for i, v in enumerate((abs(X1[f, k]) ** 2, abs(X2[f, k]) ** 2, X2[f, k] * np.conj(X1[f, k]))):
+                    s[i, k] += step * (v - s[i, k])
+        if f % every == 0:
+            current = _estimate_reference(s, lo, hi, delay, frame_len, smooth_bins, smooth_frac, max_gain_db,
+                                          max_phase_deg)
+        r_hat[f] = current
+    return r_hat, frozen
+
+
+def _estimate_reference(s, lo, hi, delay, frame_len, smooth_bins, smooth_frac, max_gain_db, max_phase_deg):
+    K = s.shape[1]
+    s11, s22, s21 = s[0].real, s[1].real, s[2]
+    lag = sum(s21[k + 1] * np.conj(s21[k]) for k in range(lo, hi))
+    b0 = np.angle(lag)
+    wmax = max(abs(s21[k]) for k in range(lo, hi + 1))
+    M = np.zeros((3, 3))
+    rhs = np.zeros(3)
+    for k in range(lo, hi + 1):
+        col = np.array([1.0, k / hi, lo / k])
+        w = abs(s21[k]) / (wmax + 1e-300)
+        psi = np.angle(s21[k] * np.exp(-1j * b0 * k))
+        M += w * np.outer(col, col)
+        rhs += w * col * psi
+    coef = np.linalg.solve(M + 1e-9 * np.eye(3), rhs)
+    max_slope = 2 * np.pi * delay / frame_len
+    slope = min(max(b0 + coef[1] / hi, -max_slope), max_slope)
+    out = np.empty(K, dtype=complex)
+    for k in range(K):
+        m = max(smooth_bins, int(np.round(smooth_frac * k)))
+        js = range(max(k - m, 0), min(k + m + 1, K))
+        d = sum(s21[j] * np.exp(-1j * slope * j) for j in js) / len(js)
+        a11 = sum(s11[j] for j in js) / len(js)
+        a22 = sum(s22[j] for j in js) / len(js)
+        g = min(max(10 * math.log10((a22 + 1e-300) / (a11 + 1e-300)), -max_gain_db), max_gain_db)
+        phi = min(max(np.angle(d), -math.radians(max_phase_deg)), math.radians(max_phase_deg))
+        out[k] = 10 ** (g / 20) * np.exp(1j * phi)
+    return out
