@@ -91,6 +91,7 @@ def _scene(noise_kind: str, seconds: float, seed: int):
 
 
 def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3) -> list[tuple]:
+    """Rows ``(noise, mismatch label, SNR-I per enhancer...)`` for one seed."""
     rows = []
     for kind in ("135", "240", "diffuse"):
         s0, v0 = _scene(kind, seconds, seed)
@@ -128,6 +129,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--settle-s", type=float, default=8.0)
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--seeds", type=int, default=3, help="speech/noise seeds averaged in the SNR-I table")
     ap.add_argument("--skip-rtf", action="store_true")
     args = ap.parse_args(argv)
 
@@ -138,16 +140,21 @@ def main(argv=None) -> int:
 
     names = ("eb", "eb-gated", "eb-subband", "eb-robust")
     print(f"\nSNR-I (dB, replay): speech 45 deg far field, babble, 5 dB SNR, {args.seconds:g} s, scored after "
-          f"{args.settle_s:g} s\n")
+          f"{args.settle_s:g} s; mean over {args.seeds} seeds\n")
     print("| noise | rear mic error | " + " | ".join(names) + " |")
     print("| --- | --- | " + " | ".join("---:" for _ in names) + " |")
-    rows = snr_improvements(names, seconds=args.seconds, settle_s=args.settle_s)
-    for row in rows:
-        print(f"| {row[0]} | {row[1]} | " + " | ".join(f"{v:.1f}" for v in row[2:]) + " |")
-    print("\nloss from the mismatch (ideal - mismatched), dB:\n")
+    per_seed = [snr_improvements(names, seconds=args.seconds, settle_s=args.settle_s, seed=3 + 10 * k)
+                for k in range(args.seeds)]
+    values = np.array([[row[2:] for row in rows] for rows in per_seed])  # (seeds, rows, names)
+    labels = [row[:2] for row in per_seed[0]]
+    for (kind, mism), v in zip(labels, values.mean(axis=0)):
+        print(f"| {kind} | {mism} | " + " | ".join(f"{x:.1f}" for x in v) + " |")
+    print("\nloss from the mismatch (ideal - mismatched), dB: mean over seeds (worst seed)\n")
     print("| noise | " + " | ".join(names) + " |\n| --- | " + " | ".join("---:" for _ in names) + " |")
-    for ideal, bad in zip(rows[0::2], rows[1::2]):
-        print(f"| {ideal[0]} | " + " | ".join(f"{a - b:.1f}" for a, b in zip(ideal[2:], bad[2:])) + " |")
+    loss = values[:, 0::2] - values[:, 1::2]  # (seeds, kinds, names)
+    for i, (kind, _) in enumerate(labels[0::2]):
+        print(f"| {kind} | " + " | ".join(f"{m:.1f} ({w:.1f})" for m, w in zip(loss[:, i].mean(axis=0),
+                                                                              loss[:, i].max(axis=0))) + " |")
 
     print("\nBroadband white-noise amplification re the look direction (dB; target <= 6 for eb-robust)\n")
     print("| enhancer | amplification |\n| --- | ---: |")
