@@ -42,7 +42,9 @@ the mismatch term, which is why ``eb-subband`` alone degrades with mismatched mi
 
 Equaliser: :func:`enhancers.eq.look_eq_gain` per bin (exact look-direction inverse,
 ``eq_max_gain_db`` cap; ``eq_noise_gain_db`` the noise-aware white-noise-gain bound;
-``eq_highpass_hz``).  ``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.
+``eq_highpass_hz``) times ``-j``: the look-direction response ``2j sin(wT) e^{-jwT}`` then
+becomes the front mic delayed by ``T`` (not its 90-degree-shifted version), so the output
+lines up with the reference at the declared latency plus ``T fs`` samples.  ``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.
 Latency ``frame_len - 1`` samples.
 """
 
@@ -199,10 +201,13 @@ class SubbandBase(StftEnhancer):
             return np.ones_like(betas)
         n = int(p.frame_len)
         omega = bin_omega(n)
-        return look_eq_gain(betas, omega=omega, delay_samples=self.delay_samples(fs),
-                            freqs_hz=omega / (2 * np.pi) * fs, max_gain_db=float(p.eq_max_gain_db),
-                            noise_gain_db=None if p.eq_noise_gain_db is None else float(p.eq_noise_gain_db),
-                            highpass_hz=float(p.eq_highpass_hz))
+        g = look_eq_gain(betas, omega=omega, delay_samples=self.delay_samples(fs),
+                         freqs_hz=omega / (2 * np.pi) * fs, max_gain_db=float(p.eq_max_gain_db),
+                         noise_gain_db=None if p.eq_noise_gain_db is None else float(p.eq_noise_gain_db),
+                         highpass_hz=float(p.eq_highpass_hz))
+        # the look response is 2j sin(wT) e^{-jwT} X1: -j undoes the j (a 90 deg shift, which a
+        # time-domain integrator undoes too), leaving the front mic delayed by T
+        return -1j * g
 
     def _beamform(self, X1, X2, sub: SubbandState, fs: int):
         """``(Y (F, K), betas, eq gains, new state)`` for the frames of one block."""
