@@ -21,7 +21,13 @@ from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS, MicPair, unit_vector
 from scenesim.ism import image_source_rir
 from scenesim.mixing import mix_at_snr, noise_gain_for_snr
-from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
+from scenesim.noise_fields import (
+    corcos_coherence,
+    diffuse_noise,
+    incoherent_noise,
+    sensor_noise,
+    wind_noise,
+)
 from scenesim.room import ShoeBox
 from scenesim.rt60 import eyring_rt60, measure_rt60, sabine_rt60
 from scenesim.scene import (
@@ -33,5 +39,6 @@ from scenesim.scene import (
     render_images,
     render_scene,
 )
+from scenesim.sensors import MicResponse, SensorModel, SensorTolerance
 
 __version__ = "0.1.0"
