@@ -102,7 +102,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 ax1,
                 xs,
                 [a["snr_i_db"] for a in agg],
-                [a["snr_i_db_std"] for a in agg],
+                [a["snr_i_db_ci95"] for a in agg],
                 color=c,
                 ls="-",
                 marker="o",
@@ -112,7 +112,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 ax2,
                 xs,
                 [a["pesq_nb_out"] for a in agg],
-                [a["pesq_nb_out_std"] for a in agg],
+                [a["pesq_nb_out_ci95"] for a in agg],
                 color=c,
                 ls="-",
                 marker="o",
@@ -122,7 +122,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 ax2,
                 xs,
                 [a["pesq_wb_out"] for a in agg],
-                [a["pesq_wb_out_std"] for a in agg],
+                [a["pesq_wb_out_ci95"] for a in agg],
                 color=c,
                 ls=":",
                 marker="s",
@@ -192,7 +192,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 axes[0, j],
                 xs,
                 [a["snr_i_db"] for a in agg],
-                [a["snr_i_db_std"] for a in agg],
+                [a["snr_i_db_ci95"] for a in agg],
                 color=colours[name],
                 marker="o",
                 label=name,
@@ -201,7 +201,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 axes[1, j],
                 xs,
                 [a["pesq_nb_out"] for a in agg],
-                [a["pesq_nb_out_std"] for a in agg],
+                [a["pesq_nb_out_ci95"] for a in agg],
                 color=colours[name],
                 marker="o",
                 label=name,
@@ -212,7 +212,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7)
     fig.suptitle(
-        f"vs RT60 (speech {angles[0]:g}°, noise {angles[1]:g}°; mean ± std over seeds at "
+        f"vs RT60 (speech {angles[0]:g}°, noise {angles[1]:g}°; mean ± 95 % CI over seeds at "
         f"input SNR {', '.join(f'{s:g}' for s in snrs)} dB)",
         fontsize=10,
     )
