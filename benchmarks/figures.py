@@ -24,7 +24,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
 
 from benchmarks import thesis_reference as T  # noqa: E402
-from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slices  # noqa: E402
+from benchmarks.report_tables import (  # noqa: E402
+    aggregate,
+    aggregate_over_seeds,
+    distinct,
+    modal,
+    num,
+    sweep_slices,
+)
 
 #: Preferred fixed values of the sweeps (the thesis geometry) when several qualify.
 RT60_FIXED = ("speech_az_deg", "noise_az_deg")
@@ -186,7 +193,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     for j, noise in enumerate(noises):
         for name in names:
             part = [r for r in sel if r["noise"] == noise and r["enhancer"] == name]
-            agg = aggregate(part, ("rt60_s",))
+            agg = aggregate_over_seeds(part, ("rt60_s",))
             xs = [a["rt60_s"] for a in agg]
             _errorbar(
                 axes[0, j],
@@ -252,7 +259,7 @@ def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     for k, (sel, base, snrs, noise) in enumerate(panels):
         ax = axes[k // n_cols, k % n_cols]
         for name in names:
-            agg = aggregate(
+            agg = aggregate_over_seeds(
                 [r for r in sel if r["noise"] == noise and r["enhancer"] == name], ("noise_az_deg",)
             )
             pts = sorted(

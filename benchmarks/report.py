@@ -28,13 +28,14 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures
+from benchmarks import figures, report_sensors
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.report_tables import (
     CONDITION_KEYS,
     METRIC_FIELDS,
     aggregate,
+    aggregate_over_seeds,
     distinct,
     fmt,
     markdown_table,
@@ -123,18 +124,24 @@ def averages(comparison: Sequence[dict]) -> list[dict[str, Any]]:
 def _sweep(
     ok_rows, vary: str, fixed: tuple[str, ...], prefer: tuple, max_groups: int
 ) -> tuple[list[dict], list[str]]:
-    """Per (enhancer, noise, fixed..., ``vary``) over the sweeps of :func:`sweep_slices`
-    (mean over the common input SNRs, seeds and talkers); also one line per sweep saying
-    what was held fixed."""
+    """Per (enhancer, noise, fixed..., ``vary``) over the sweeps of :func:`sweep_slices`: each
+    seed's mean over the common input SNRs, then mean and 95 % CI over seeds; also one line
+    per sweep saying what was held fixed.  Rows whose noise azimuth was drawn per seed are
+    not an azimuth sweep and are left out."""
+    ok_rows = [r for r in ok_rows if not _drawn_azimuth(r)]
     records: list[dict] = []
     notes: list[str] = []
     for sel, base, snrs in sweep_slices(ok_rows, vary, fixed, prefer=prefer, max_groups=max_groups):
-        agg = aggregate(sel, ("enhancer", "noise", *fixed, vary))
+        agg = aggregate_over_seeds(sel, ("enhancer", "noise", *fixed, vary))
         agg.sort(key=lambda r: (T.system_rank(r["enhancer"]), str(r["enhancer"]), str(r["noise"])))
         records += agg
         held = ", ".join(f"{k} = {v:g}" for k, v in zip(fixed, base) if num(v) is not None)
         notes.append(f"{held}; input SNR {_snr_text(snrs)}")
     return records, notes
+
+
+def _drawn_azimuth(row: dict) -> bool:
+    return '"noise_az_range_deg"' in str(row.get("condition_json") or "")
 
 
 def _snr_text(snrs) -> str:
@@ -341,7 +348,8 @@ def _sweep_section(title: str, agg: Sequence[dict], keys: Sequence[str], notes: 
         for r in agg
     ]
     held = "; ".join(f"({k + 1}) {note}" for k, note in enumerate(notes))
-    text = f"Mean ± 95 % CI over seeds (n seeds). Sweeps shown: {held}."
+    text = (f"Each seed's mean over the input SNRs, then mean ± 95 % CI over seeds (n seeds). "
+            f"Sweeps shown: {held}.")
     return [f"## {title}", "", text, "", markdown_table(header, body), ""]
 
 
@@ -553,13 +561,25 @@ def write_report(
         )
     )
     fig_paths = figures.all_figures(ok, report_dir) if ok else []
+    phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
+    mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
+    flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
+    paths += [p for p in (*phone_paths, *mismatch_paths, *flag_paths) if p.suffix != ".png"]
+    fig_paths += [p for p in (*phone_paths, *mismatch_paths) if p.suffix == ".png"]
 
     lines = _meta_lines(meta, all_rows)
-    lines += _thesis_section(comparison)
-    lines += _averages_section(avg)
+    lines += phone_lines
+    lines += mismatch_lines
+    if comparison or not ok:
+        lines += _thesis_section(comparison)
+        lines += _averages_section(avg)
+    else:
+        lines += ["No rows at the thesis' conditions (far field, 2.14 cm, 45°/270° point noise, "
+                  "anechoic, ideal sensors): no thesis tables in this report.", ""]
     lines += _sweep_section("Reverberation (RT60 sweep)", rt60, rt60_keys, rt60_notes)
     lines += _sweep_section("Noise azimuth sweep", azim, azim_keys, azim_notes)
     lines += _conditions_section(cond)
+    lines += flag_lines
     lines += _failures_section(fail, len(all_rows))
     lines += _sources_section(all_rows)
     lines += ["## Files", ""]

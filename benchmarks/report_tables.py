@@ -145,6 +145,21 @@ def aggregate(
     return out
 
 
+def aggregate_over_seeds(
+    rows: Sequence[Mapping[str, Any]],
+    by: Sequence[str],
+    fields: Sequence[str] = METRIC_FIELDS,
+) -> list[dict[str, Any]]:
+    """Like :func:`aggregate`, but the spread is over seeds only.
+
+    First each seed's mean over everything not in ``by`` (e.g. the input SNRs of a sweep),
+    then mean, ``_std`` and ``_ci95`` of those per-seed means; ``n`` is the number of seeds.
+    A statistic is never taken over input SNRs or other conditions.
+    """
+    per_seed = aggregate(rows, (*by, "seed"), fields)
+    return aggregate(per_seed, by, fields)
+
+
 def distinct(rows: Iterable[Mapping[str, Any]], key: str) -> list:
     """Sorted distinct non-None values of ``key``."""
     return sorted({r.get(key) for r in rows if r.get(key) is not None}, key=_sort_key)

@@ -310,6 +310,7 @@ class Condition:
     mic_highpass_tol_hz: float = 0.0
     wind_speed_mps: float = 5.0
     snr_band_hz: tuple[float, float] | None = None
+    noise_az_range_deg: tuple[float, float] | None = None
 
     def canonical(self) -> dict[str, Any]:
         """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
@@ -345,7 +346,7 @@ class Condition:
     def from_json(cls, text: str) -> Condition:
         values = json.loads(text)
         values.pop("v", None)
-        for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz"):
+        for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz", "noise_az_range_deg"):
             if values.get(key) is not None:
                 values[key] = tuple(values[key])
         return cls(**values)
@@ -379,6 +380,7 @@ _LATE_DEFAULTS: dict[str, Any] = {
     "mic_highpass_tol_hz": 0.0,
     "wind_speed_mps": 5.0,
     "snr_band_hz": None,
+    "noise_az_range_deg": None,
 }
 """Condition keys added after the first release, with the value that leaves them out of the id."""
 
@@ -454,8 +456,10 @@ def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condit
     if field_ == "point":
         if az_range is not None:
             # One draw per seed (the same for every noise): a spread of phone orientations.
+            # The range stays in the condition: its rows are no azimuth sweep.
             u = np.random.default_rng([values["seed"], _AZIMUTH_STREAM]).uniform()
             values["noise_az_deg"] = round(az_range[0] + u * (az_range[1] - az_range[0]), 6)
+            values["noise_az_range_deg"] = az_range
     else:
         # Fields have no place: one condition whatever the azimuth/distance axes say.
         values["noise_az_deg"] = None
