@@ -118,12 +118,12 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             _errorbar(
                 ax2,
                 xs,
-                [a["pesq_nb_out"] for a in agg],
-                [a["pesq_nb_out_ci95"] for a in agg],
+                [a.get("pesq_nb_raw_out") for a in agg],
+                [a.get("pesq_nb_raw_out_ci95") for a in agg],
                 color=c,
                 ls="-",
                 marker="o",
-                label=f"{name} (nb)",
+                label=f"{name} (raw P.862)",
             )
             _errorbar(
                 ax2,
@@ -158,12 +158,13 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                     )
         ax1.set(xlabel="input SNR (dB)", ylabel="SNR improvement (dB)", title=f"SNR-I, {noise}")
         ax2.set(
-            xlabel="input SNR (dB)", ylabel="output PESQ (MOS-LQO)", title=f"output PESQ, {noise}"
+            xlabel="input SNR (dB)", ylabel="output PESQ (raw P.862; wb dotted)", title=f"output PESQ, {noise}"
         )
         ax1.grid(True, alpha=0.3)
         ax2.grid(True, alpha=0.3)
         # One legend outside, from the PESQ panel (it has every line style).
-        ax2.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+        if ax2.get_legend_handles_labels()[0]:
+            ax2.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
         where = "thesis geometry" if at_thesis else _geo_text(geo)
         fig.suptitle(f"{noise}: ours solid, thesis dashed ({where})", fontsize=10)
         fig.tight_layout()
