@@ -128,7 +128,7 @@ def _sweep(
     seed's mean over the common input SNRs, then mean and 95 % CI over seeds; also one line
     per sweep saying what was held fixed.  Rows whose noise azimuth was drawn per seed are
     not an azimuth sweep and are left out."""
-    ok_rows = [r for r in ok_rows if not _drawn_azimuth(r)]
+    ok_rows = [r for r in ok_rows if not _drawn_azimuth(r) and r.get(vary) is not None]
     records: list[dict] = []
     notes: list[str] = []
     for sel, base, snrs in sweep_slices(ok_rows, vary, fixed, prefer=prefer, max_groups=max_groups):
@@ -523,9 +523,12 @@ def write_report(
     )
     rt60_keys = (*figures.RT60_FIXED, "rt60_s")
     azim_keys = (*figures.AZIMUTH_FIXED, "noise_az_deg")
-    rt60, rt60_notes = _sweep(ok, "rt60_s", figures.RT60_FIXED, figures.RT60_PREFER, 1)
+    # A sensor-mismatch sweep has its own section; averaging its rows over the mismatch
+    # values into RT60/azimuth sweeps would describe no microphone pair at all.
+    generic = [] if report_sensors.mismatch_rows(ok) else ok
+    rt60, rt60_notes = _sweep(generic, "rt60_s", figures.RT60_FIXED, figures.RT60_PREFER, 1)
     azim, azim_notes = _sweep(
-        ok,
+        generic,
         "noise_az_deg",
         figures.AZIMUTH_FIXED,
         figures.AZIMUTH_PREFER,
@@ -560,7 +563,7 @@ def write_report(
             ],  # fmt: skip
         )
     )
-    fig_paths = figures.all_figures(ok, report_dir) if ok else []
+    fig_paths = figures.all_figures(generic, report_dir) if generic else []
     phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
     mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
     flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)

@@ -225,7 +225,7 @@ def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -
     geos = sorted({r["geometry"] for r in agg})
     names = _order(r["enhancer"] for r in agg if r["enhancer"] != "passthrough") or ["passthrough"]
     phases = sorted({r["nominal_phase_deg"] for r in agg})
-    noises = sorted({r["self_noise"] for r in agg})
+    noises = sorted({r["self_noise"] for r in agg}, key=lambda v: (v != "none", v))  # noiseless: solid
     fig, axes = plt.subplots(len(geos), len(names), figsize=(4.2 * len(names), 3.2 * len(geos)), squeeze=False)
     cmap = plt.get_cmap("viridis")
     for i, geo in enumerate(geos):
