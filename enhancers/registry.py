@@ -404,6 +404,8 @@ _BUILTINS = (
     ("ss", "enhancers.ss:SpectralSubtraction"),
     ("ss-ms2001", "enhancers.ss:SpectralSubtractionMS2001"),
     ("eb-ss", "enhancers.chain:EbSs"),
+    ("mmse-lsa", "enhancers.mmse_lsa:MmseLsa"),
+    ("superdirective", "enhancers.superdirective:Superdirective"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)
