@@ -15,6 +15,11 @@ Latency (declared in ``tags``): 159 samples of frame buffering + 32 (the two FIR
 samples at 48 kHz) + 320 (RNNoise's own delay, 20 ms: measured, the output's
 cross-correlation with speech peaks there for every CMU ARCTIC utterance tried) = 511
 samples, checked in the tests.  Not replayable: measured by phase inversion.
+
+RNNoise's network was trained on real speech: it treats the built-in artificial voice
+(the speech of a sweep without ``--data-dir``) largely as noise -- in a smoke-like sweep
+STOI fell by 0.3-0.7 with it, but by 0.00-0.05 with CMU ARCTIC speech (``--data-dir``).
+Benchmark it with real speech.
 """
 
 from __future__ import annotations
