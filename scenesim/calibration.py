@@ -47,7 +47,7 @@ from scenesim.bands import SPEECH_BANDS_HZ, check_centers, octave_filter, speech
 from scenesim.cache import array_key, cached_array
 from scenesim.errors import ParameterError
 from scenesim.room import ShoeBox, register_calibrator
-from scenesim.rt60 import measure_rt60, wall_areas
+from scenesim.rt60 import measure_rt60, sabine_absorption, wall_areas
 from scenesim.validate import check_fs, check_positive
 
 CALIBRATION_PLACEMENTS = (
@@ -176,6 +176,8 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
             or np.any(target <= 0):
         allowed = "an RT60 > 0 s" + ("" if bands is None else f" or {n_bands} per-band values")
         raise ParameterError("rt60_s", rt60_s, allowed)
+    for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
+        sabine_absorption(float(t), dims, c=c)
     key = array_key("room-calibration", CALIBRATION_VERSION, dims=dims, rt60_s=target.tolist(), profile=profile,
                     bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS)
     return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs))
