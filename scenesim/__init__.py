@@ -24,6 +24,7 @@ from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS, MicPair, unit_vector
 from scenesim.ism import image_source_rir
 from scenesim.mixing import mix_at_snr, noise_gain_for_snr
+from scenesim.moving import render_moving_source
 from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
 from scenesim.render import room_rir
 from scenesim.room import ShoeBox
