@@ -38,7 +38,7 @@ import numpy as np
 
 from scenesim.errors import ParameterError
 
-CACHE_FORMAT = "scenesim-rir-v1"
+CACHE_FORMAT = "scenesim-rir-v2"  # v2: room_rir (20 Hz high-pass by default, bands, air)
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
 CACHE_FORMAT_ARRAY = "scenesim-array-v1"

@@ -25,7 +25,7 @@ from scipy import signal as ss
 
 from scenesim.errors import ParameterError
 from scenesim.ism import default_length_s
-from scenesim.render import room_rir
+from scenesim.render import DEFAULT_HIGHPASS_HZ, room_rir
 from scenesim.room import ShoeBox
 from scenesim.validate import check_fs, check_positive
 
@@ -80,7 +80,8 @@ def crossfade_windows(n_samples: int, fs: int, block_s: float) -> tuple[np.ndarr
 
 def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, mics_m, *, fs: int,
                          block_s: float = 0.05, waypoint_times_s=None, length_s: float | None = None,
-                         max_order: int | None = None) -> np.ndarray:
+                         max_order: int | None = None,
+                         highpass_hz: float | None = DEFAULT_HIGHPASS_HZ) -> np.ndarray:
     """Mic signals ``(n_mics, n_samples + n_taps - 1)`` of a source moving along ``path_m``.
 
     Parameters
@@ -104,6 +105,8 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
     length_s, max_order : optional
         RIR length / image order (default length: :func:`scenesim.ism.default_length_s` at the
         path position farthest from the mics).
+    highpass_hz : float or None
+        RIR high-pass as :func:`scenesim.render.room_rir` (default 20 Hz; None: raw).
 
     Example
     -------
@@ -134,7 +137,8 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
     for (start, w), p in zip(windows, pos):
         key = tuple(np.round(p, 12))
         if key not in rir_cache:  # a path that pauses reuses its RIR
-            rir_cache[key] = room_rir(room, p, mics, fs=fs, length_s=length_s, max_order=max_order)
+            rir_cache[key] = room_rir(room, p, mics, fs=fs, length_s=length_s, max_order=max_order,
+                                      highpass_hz=highpass_hz)
         pieces.append((start, w, rir_cache[key]))
     n_taps = max(h.shape[-1] for _, _, h in pieces)
     y = np.zeros((mics.shape[0], x.size + n_taps - 1))

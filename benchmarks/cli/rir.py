@@ -58,6 +58,9 @@ def add_parser(subparsers):
     p.add_argument("--max-order", type=int, default=None, metavar="N",
                    help="L1 image order bound (default: all images within the RIR length; "
                         "with --compare: pyroomacoustics' inverse-Sabine order)")
+    p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+                   help="causal 2nd-order Butterworth high-pass of the RIR in Hz (default 20, as every "
+                        "rendered scene; 0 = the raw image sum)")
     p.add_argument("--length", type=float, default=None, metavar="S", help="RIR length in seconds")
     p.add_argument("--method", choices=("auto", "exact", "fast"), default="auto",
                    help="renderer (default auto)")
@@ -99,7 +102,7 @@ def run(args) -> int:
         max_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
     h = room_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-        method=args.method,
+        method=args.method, highpass_hz=args.highpass if args.highpass else None,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -127,6 +130,7 @@ def run(args) -> int:
         "time_origin": "tap 0 = emission, no global delay",
     }
     meta.update(_band_meta(room))
+    meta["highpass_hz"] = args.highpass if args.highpass else None
     (out / "rir.json").write_text(json.dumps(meta, indent=2))
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
