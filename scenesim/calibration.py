@@ -3,8 +3,9 @@
 :func:`calibrate_room` returns a :class:`~scenesim.room.ShoeBox` whose measured reverberation
 time matches a target.  What is measured is the decay speech hears, not the broadband
 Schroeder T30 of the raw RIR: an image-source RIR is not high-passed and carries a
-DC/infrasonic build-up (mean/peak 1-5 %) whose slow decay inflates the broadband T30, so a
-loop fitted on it leaves the 500 Hz-2 kHz octaves 11-22 % short of the target.  Here:
+DC/infrasonic build-up (mean/peak 0.5-12 % in the rooms measured) whose slow decay inflates the
+broadband T30, so a loop fitted on it left the 500 Hz-2 kHz octaves 17-20 % short of the target
+(mean over 4 other placements, 8 of 9 rooms; ``benchmarks/perf/room_acoustics_check.py``).  Here:
 
 * flat absorption, scalar target: the mean of the 500 Hz, 1 kHz and 2 kHz octave T30s
   (:func:`scenesim.bands.speech_rt60`), averaged over the :data:`CALIBRATION_PLACEMENTS`;
@@ -24,9 +25,10 @@ band.  Results are memoised with :func:`scenesim.cache.cached_array` (memory, an
 
 The check of the result must not be the loop's own measurement at the loop's own placements:
 ``tests/test_calibration.py`` measures other placements with pyroomacoustics'
-``experimental.measure_rt60`` on differently filtered octaves.  Placement-to-placement spread
-of octave T30 in a shoebox ISM is about +-10 % (non-diffuse decay), which is why the loop
-averages several placements.
+``experimental.measure_rt60`` on differently filtered octaves: the speech-octave mean is within
+-4.8..+1.1 % of the target in 9 rooms (RT60 0.4-2 s).  A single octave at a single placement
+varies much more (+-5..20 %, 22 % in a 12 x 3 m corridor): a uniform shoebox's ISM decay is
+not diffuse, which is why the loop averages several placements and several octaves.
 
 Whether :func:`scenesim.ism.image_source_rir` high-passes by default: it does not.  Its
 output is the physical image sum, which the slow reference and pyroomacoustics (with its

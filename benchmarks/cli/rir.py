@@ -118,8 +118,8 @@ def run(args) -> int:
     meta = {
         "dims_m": list(room.dims_m),
         "wall_absorption": room.wall_absorption.tolist(),
-        "rt60_s": room.rt60_s,
-        "rt60_method": room.rt60_method,
+        "rt60_s": args.rt60,
+        "rt60_method": args.rt60_method if args.rt60 is not None else None,
         "sabine_rt60_s": np.asarray(room.sabine_rt60_s).tolist(),
         "source_m": list(map(float, args.source)),
         "mics_m": mics.tolist(),
