@@ -54,8 +54,8 @@ def attenuation_db_per_m(frequency_hz, *, temperature_c: float = 20.0, humidity_
 
     Examples
     --------
-    >>> round(float(attenuation_db_per_m(1000.0, temperature_c=20.0, humidity_pct=70.0)) * 1000, 1)
-    4.9
+    >>> round(float(attenuation_db_per_m(1000.0, temperature_c=20.0, humidity_pct=70.0)) * 1000, 1)  # dB/km
+    5.0
     """
     f = np.asarray(frequency_hz, dtype=float)
     if not np.all(np.isfinite(f)) or np.any(f <= 0):
