@@ -209,9 +209,12 @@ def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs)
         s = _solve_scale(measure, t, _start_scale(dims, x_speech, t, c), "")
         return _scaled(x, s)
     out = np.empty_like(profile)
+    s = None
     for b, center in enumerate(bands):
-        if center * math.sqrt(0.5) >= 0.499 * fs:  # no octave below Nyquist: nothing to fit
-            out[:, b] = profile[:, b]
+        if center * math.sqrt(0.5) >= 0.499 * fs:
+            # No octave below Nyquist to measure: keep the last fitted band's scale (rendering at
+            # this fs never uses the band; a higher fs should recalibrate).
+            out[:, b] = _scaled(x[:, b], 1.0 if s is None else s)
             continue
         t = float(target[b])
         kw = dict(center=center, air=air, c=c, fs=fs, length_s=_length_s(dims, t, c), target=t)
