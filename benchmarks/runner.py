@@ -33,6 +33,7 @@ from typing import Any
 from benchmarks.executors import EXECUTORS, make_executor
 from benchmarks.store import ResultStore, package_versions
 from benchmarks.sweep import Condition, Sweep, load_sweep
+from benchmarks.versioning import check_version
 from scenesim.errors import ConfigError, ParameterError
 from scenesim.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_choice
@@ -53,6 +54,9 @@ _CONDITION_COLUMNS = (
     "noise_field",
     "fs",
     "duration_s",
+    "far_field",
+    "spacing_m",
+    "wind_speed_mps",
 )
 
 
@@ -132,6 +136,41 @@ def _dataset(data_dir: str | None, fs: int):
     return _DATASETS[key]
 
 
+def build_sensors(cond: Condition):
+    """The condition's sensors: nominal mismatch and self-noise, this seed's production draw.
+
+    None for the thesis' ideal sensors (identical noiseless mics).
+    """
+    from scenesim.sensors import SensorModel, SensorTolerance
+
+    if cond.ideal_sensors:
+        return None
+    nominal = SensorModel.from_mismatch(
+        gain_db=cond.mic_gain_db,
+        phase_deg=cond.mic_phase_deg,
+        highpass_hz=cond.mic_highpass_hz,
+        self_noise_dba=cond.self_noise_dba,
+        speech_spl_db=cond.speech_spl_db,
+    )
+    tolerance = SensorTolerance(
+        gain_tol_db=cond.mic_gain_tol_db,
+        phase_tol_deg=cond.mic_phase_tol_deg,
+        highpass_tol_hz=cond.mic_highpass_tol_hz,
+    )
+    return tolerance.draw(nominal, seed=cond.seed)
+
+
+def sensor_columns(cond: Condition) -> dict[str, Any]:
+    """The sensor parameters a row was computed with (drawn values, not the nominal ones)."""
+    from scenesim.sensors import SensorModel
+
+    sensors = build_sensors(cond)
+    out = (sensors or SensorModel()).describe()
+    out["ideal_sensors"] = int(sensors is None)
+    out["snr_band_lo_hz"], out["snr_band_hi_hz"] = cond.snr_band_hz or (None, None)
+    return out
+
+
 def build_scene(cond: Condition):
     """The :class:`scenesim.scene.Scene` of a condition (same for every SNR of its group)."""
     from scenesim.geometry import MicPair
@@ -141,27 +180,31 @@ def build_scene(cond: Condition):
     room = None
     if cond.room_dims_m is not None:
         room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
+    placed = {}  # fields have no place: keep NoiseSource's defaults
+    if cond.noise_az_deg is not None:
+        placed["azimuth_deg"] = cond.noise_az_deg
+    if cond.noise_distance_m is not None:
+        placed["distance_m"] = cond.noise_distance_m
     return Scene(
         fs=cond.fs,
         pair=MicPair(cond.pair_center_m, spacing_m=cond.spacing_m, axis_azimuth_deg=cond.axis_azimuth_deg),
         room=room,
         speech=SourcePlacement(azimuth_deg=cond.speech_az_deg, distance_m=cond.distance_m),
-        noises=(
-            NoiseSource(
-                field=cond.noise_field, azimuth_deg=cond.noise_az_deg, distance_m=cond.noise_distance_m
-            ),
-        ),
+        noises=(NoiseSource(field=cond.noise_field, wind_speed_mps=cond.wind_speed_mps, **placed),),
         snr_db=cond.snr_db,
         far_field=cond.far_field,
         snr_mode=cond.snr_mode,
         reference=cond.reference,
         seed=cond.seed,
+        sensors=build_sensors(cond),
+        snr_band_hz=cond.snr_band_hz,
     )
 
 
 def _noise_channels(field_type: str) -> int:
-    # Diffuse and incoherent fields are built from two independent noise channels.
-    return 1 if field_type == "point" else 2
+    # Diffuse, incoherent and wind fields are built from two independent noise channels;
+    # point and spread sources from one recording (spread: disjoint excerpts of it).
+    return 1 if field_type in ("point", "spread") else 2
 
 
 def render_group(cond: Condition, data_dir: str | None):
@@ -317,6 +360,7 @@ def run_sweep(
     retry_errors: bool = False,
     report: bool = True,
     progress: bool = True,
+    new_version: bool = False,
 ) -> RunSummary:
     """Run ``sweep`` (a :class:`Sweep`, preset name or TOML path) into ``out_dir/results.sqlite``.
 
@@ -335,6 +379,10 @@ def run_sweep(
         Recompute rows stored with ``status='error'`` (by default they count as done).
     report : bool
         Write ``out_dir/report`` from every row in the store at the end.
+    new_version : bool
+        The store holds rows of another version of the sweep (any axis or fixed value,
+        enhancer or parameter changed): move them to ``results_previous`` and start this
+        version (without it such a run is refused, :mod:`benchmarks.versioning`).
     progress : bool
         Show a progress bar (only when stderr is a terminal).
 
@@ -363,9 +411,9 @@ def run_sweep(
     out_dir = Path(out_dir)
     t_start = time.perf_counter()
     with ResultStore.open(out_dir) as store:
+        version = check_version(store, sweep, out_dir=out_dir, new_version=new_version)
         done = store.done_keys(include_errors=not retry_errors)
         tasks = plan_conditions(sweep, conditions, done, data_dir)
-        _warn_changed_params(store, sweep, conditions, done)
         _warn_changed_data(store, data_dir, n_kept=len(conditions) - len(tasks))
         run_id = store.start_run(
             sweep=sweep.name,
@@ -387,7 +435,7 @@ def run_sweep(
                     units = plan_units(tasks, workers=ex.workers or 1)
                     with _progress(len(tasks), sweep.name, enabled=progress) as bar:
                         for unit, outcome in ex.run(run_unit, units):
-                            for rows in _rows_of(unit, outcome, run_id):
+                            for rows in _rows_of(unit, outcome, run_id, version):
                                 # one transaction per condition: a kill never leaves half of one
                                 n_rows += store.write_rows(rows)
                                 n_errors += sum(r.get("status") != "ok" for r in rows)
@@ -446,7 +494,7 @@ def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
             )
 
 
-def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, Any]]]:
+def _rows_of(unit: UnitTask, outcome: Any, run_id: str, version: str | None = None) -> list[list[dict[str, Any]]]:
     """Rows per condition from a unit's outcome; an exception (e.g. Dask's KilledWorker)
     becomes error rows for every condition of the unit."""
     if isinstance(outcome, BaseException):
@@ -456,6 +504,7 @@ def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, A
     for rows in per_condition:
         for row in rows:
             row["run_id"] = run_id
+            row["sweep_version"] = version
     return per_condition
 
 
@@ -469,29 +518,10 @@ def _condition_columns(cond: Condition) -> dict[str, Any]:
         "condition_id": cond.id,
         "snr_in_db": cond.snr_db,
         **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
+        **sensor_columns(cond),
         "group_id": cond.group_id,
         "condition_json": cond.to_json(),
     }
-
-
-def _warn_changed_params(store: ResultStore, sweep: Sweep, conditions, done) -> None:
-    """Stored rows made with other enhancer params are kept (same key): say so."""
-    specs = store.stored_specs()
-    ids = {c.id for c in conditions}
-    changed = set()
-    for (cid, name), text in specs.items():
-        if cid not in ids or (cid, name) not in done or not text or name not in sweep.enhancer_params:
-            continue
-        stored = json.loads(text).get("params", {})
-        for key, value in sweep.enhancer_params[name].items():
-            if key in stored and stored[key] != value:
-                changed.add(name)
-    for name in sorted(changed):
-        warnings.warn(
-            f"rows for {name!r} already in the store were computed with other parameters and are "
-            "kept; use a new --out directory to recompute them",
-            stacklevel=3,
-        )
 
 
 def _warn_changed_data(store: ResultStore, data_dir: str | None, *, n_kept: int) -> None:
@@ -542,10 +572,17 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None)
     try:
         rows = store.rows()
         runs = store.runs()
+        version = store.get_meta("sweep_version")
     finally:
         if own:
             store.close()
-    return list(write_report(rows, Path(out_dir), meta=report_meta(runs, Path(out_dir) / "results.sqlite")))
+    meta = report_meta(runs, Path(out_dir) / "results.sqlite")
+    if version is not None:
+        # Never average rows of two sweep versions: the store's current version only.
+        other = sum(r.get("sweep_version") not in (None, version) for r in rows)
+        rows = [r for r in rows if r.get("sweep_version") in (None, version)]
+        meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
+    return list(write_report(rows, Path(out_dir), meta=meta))
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:

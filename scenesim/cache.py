@@ -38,7 +38,7 @@ import numpy as np
 
 from scenesim.errors import ParameterError
 
-CACHE_FORMAT = "scenesim-rir-v1"
+CACHE_FORMAT = "scenesim-rir-v2"  # v2: room_rir (20 Hz high-pass by default, bands, air)
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
 CACHE_FORMAT_ARRAY = "scenesim-array-v1"
@@ -200,7 +200,10 @@ def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None)
 
 
 def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> np.ndarray:
-    """``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
+    """``room_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
+
+    :func:`scenesim.render.room_rir` is ``image_source_rir`` for flat rooms and renders rooms
+    with octave-band absorption or air absorption band by band.
 
     Parameters
     ----------
@@ -217,10 +220,10 @@ def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> 
     -------
     ndarray (n_mics, n_taps)
     """
-    from scenesim.ism import image_source_rir
+    from scenesim.render import room_rir  # flat rooms: exactly image_source_rir
 
     def compute() -> np.ndarray:
-        return np.asarray(image_source_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
+        return np.asarray(room_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
 
     return cached_array(rir_key(room, source_m, mics_m, fs=fs, **kwargs), compute, cache_dir=cache_dir)
 

@@ -23,7 +23,7 @@ def add_parser(subparsers) -> None:
         description="Run a sweep (a preset name or a TOML file) into DIR/results.sqlite and "
         "write DIR/report.  Rerunning on the same --out computes only what is missing.",
     )
-    run.add_argument("sweep", metavar="PRESET_OR_TOML", help="thesis, reverb, angles, smoke, or a sweep .toml file")
+    run.add_argument("sweep", metavar="PRESET_OR_TOML", help="a preset (scenesim bench list) or a sweep .toml file")
     run.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (store + report)")
     run.add_argument("--executor", choices=("local", "dask"), default="local", help="where to run (default: local)")
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
@@ -33,6 +33,11 @@ def add_parser(subparsers) -> None:
     run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
     run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
+    run.add_argument(
+        "--new-version",
+        action="store_true",
+        help="DIR holds rows of a changed sweep: move them to table results_previous and start over",
+    )
     run.set_defaults(func=_run)
 
     rep = sub.add_parser("report", help="write tables (Markdown, CSV) and figures (PNG) from a store")
@@ -82,6 +87,7 @@ def _run(args) -> int:
         seed=args.seed,
         retry_errors=args.retry_errors,
         report=not args.no_report,
+        new_version=args.new_version,
     )
     for note in summary.warnings:
         print(f"scenesim bench: warning: {note}", file=sys.stderr)
@@ -119,7 +125,7 @@ def _list(args) -> int:
     for name in PRESETS:
         sweep = load_sweep(name)
         n = sweep.n_conditions
-        print(f"  {name:<8} {n:4d} conditions x {len(sweep.enhancers)} enhancers = {n * len(sweep.enhancers):4d} rows")
+        print(f"  {name:<9}{n:4d} conditions x {len(sweep.enhancers)} enhancers = {n * len(sweep.enhancers):4d} rows")
         print(f"           {sweep.description}")
 
     print("\nEnhancers (name, version, source package):")

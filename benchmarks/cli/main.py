@@ -30,7 +30,7 @@ import sys  # noqa: E402
 
 from scenesim.errors import ScenesimError  # noqa: E402
 
-_COMMANDS = ("bench", "simulate", "enhance", "data", "rir")
+_COMMANDS = ("bench", "simulate", "enhance", "data", "rir", "plugin")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,8 +30,19 @@ def add_parser(subparsers):
     wall.add_argument("--absorption", nargs="+", type=float, metavar="A",
                       help="energy absorption in (0, 1]: one value or 6 in the order x=0 x=Lx y=0 y=Ly z=0 z=Lz")
     wall.add_argument("--rt60", type=float, metavar="S", help="target RT60 in seconds")
+    wall.add_argument("--band-absorption", nargs="+", type=float, metavar="A",
+                      help="octave-band absorption at 125 Hz..8 kHz: 7 values (every wall) or 42 "
+                           "(6 walls x 7 bands, wall by wall)")
+    wall.add_argument("--band-rt60", nargs=7, type=float, metavar="S",
+                      help="target T30 per octave 125 Hz..8 kHz (calibrated per band)")
     p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="sabine",
                    help="how --rt60 becomes an absorption (default sabine)")
+    p.add_argument("--air", action="store_true",
+                   help="add ISO 9613-1 air absorption (see --temperature, --humidity)")
+    p.add_argument("--temperature", type=float, default=20.0, metavar="C",
+                   help="air temperature in degrees Celsius for --air (default 20)")
+    p.add_argument("--humidity", type=float, default=50.0, metavar="PCT",
+                   help="relative humidity in %% for --air (default 50)")
     p.add_argument("--source", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"),
                    help="source position in metres")
     mics = p.add_mutually_exclusive_group(required=True)
@@ -47,6 +58,9 @@ def add_parser(subparsers):
     p.add_argument("--max-order", type=int, default=None, metavar="N",
                    help="L1 image order bound (default: all images within the RIR length; "
                         "with --compare: pyroomacoustics' inverse-Sabine order)")
+    p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+                   help="causal 2nd-order Butterworth high-pass of the RIR in Hz (default 20, as every "
+                        "rendered scene; 0 = the raw image sum)")
     p.add_argument("--length", type=float, default=None, metavar="S", help="RIR length in seconds")
     p.add_argument("--method", choices=("auto", "exact", "fast"), default="auto",
                    help="renderer (default auto)")
@@ -66,15 +80,14 @@ def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
 
 def run(args) -> int:
     from scenesim.geometry import DEFAULT_SPACING_M, MicPair
-    from scenesim.ism import image_source_rir
-    from scenesim.room import ShoeBox
+    from scenesim.render import room_rir
 
     absorption = None
     if args.absorption is not None:
         if len(args.absorption) not in (1, 6):
             raise ParameterError("absorption", args.absorption, "1 or 6 values")
         absorption = args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
-    room = ShoeBox(tuple(args.dims), absorption, rt60_s=args.rt60, rt60_method=args.rt60_method)
+    room = _build_room(args, absorption)
     if args.pair_center is not None:
         spacing = DEFAULT_SPACING_M if args.spacing is None else args.spacing
         mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
@@ -87,9 +100,9 @@ def run(args) -> int:
     max_order = args.max_order
     if args.compare and max_order is None:
         max_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
-    h = image_source_rir(
+    h = room_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-        method=args.method,
+        method=args.method, highpass_hz=args.highpass if args.highpass else None,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -105,9 +118,9 @@ def run(args) -> int:
     meta = {
         "dims_m": list(room.dims_m),
         "wall_absorption": room.wall_absorption.tolist(),
-        "rt60_s": room.rt60_s,
-        "rt60_method": room.rt60_method,
-        "sabine_rt60_s": room.sabine_rt60_s,
+        "rt60_s": args.rt60,
+        "rt60_method": args.rt60_method if args.rt60 is not None else None,
+        "sabine_rt60_s": np.asarray(room.sabine_rt60_s).tolist(),
         "source_m": list(map(float, args.source)),
         "mics_m": mics.tolist(),
         "fs": args.fs,
@@ -116,11 +129,15 @@ def run(args) -> int:
         "method": args.method,
         "time_origin": "tap 0 = emission, no global delay",
     }
+    meta.update(_band_meta(room))
+    meta["highpass_hz"] = args.highpass if args.highpass else None
     (out / "rir.json").write_text(json.dumps(meta, indent=2))
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
           f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
-    if args.compare:
+    if args.compare and not room.is_flat:
+        written += _compare_bands(room, args, mics, max_order, out)
+    elif args.compare:
         from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
         check = compare_with_pyroomacoustics(
@@ -143,3 +160,67 @@ def run(args) -> int:
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _build_room(args, absorption):
+    """The room the flags describe (calibrated rooms through scenesim.calibration.calibrate_room)."""
+    from scenesim.air import AirAbsorption
+    from scenesim.bands import OCTAVE_CENTERS_HZ
+    from scenesim.calibration import calibrate_room
+    from scenesim.room import ShoeBox
+
+    air = AirAbsorption(temperature_c=args.temperature, humidity_pct=args.humidity) if args.air else None
+    dims = tuple(args.dims)
+    if args.band_rt60 is not None:
+        return calibrate_room(dims, tuple(args.band_rt60), bands_hz=OCTAVE_CENTERS_HZ, air=air, fs=args.fs)
+    if args.band_absorption is not None:
+        values = np.asarray(args.band_absorption, dtype=float)
+        if values.size not in (7, 42):
+            raise ParameterError("band_absorption", args.band_absorption, "7 or 42 values")
+        table = values if values.size == 7 else values.reshape(6, 7)
+        return ShoeBox(dims, table, bands_hz=OCTAVE_CENTERS_HZ, air=air)
+    if args.rt60 is not None and args.rt60_method == "calibrated":
+        return calibrate_room(dims, args.rt60, air=air, fs=args.fs)
+    return ShoeBox(dims, absorption, rt60_s=args.rt60, rt60_method=args.rt60_method, air=air)
+
+
+def _band_meta(room) -> dict:
+    meta = {"bands_hz": None if room.bands_hz is None else list(room.bands_hz)}
+    if room.target_rt60_s is not None:
+        meta["target_rt60_s"] = room.target_rt60_s if np.ndim(room.target_rt60_s) == 0 else list(room.target_rt60_s)
+    if room.air is not None:
+        meta["air"] = {"temperature_c": room.air.temperature_c, "humidity_pct": room.air.humidity_pct,
+                       "pressure_kpa": room.air.pressure_kpa, "standard": "ISO 9613-1"}
+    return meta
+
+
+def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
+    """Octave-band materials / air absorption against pyroomacoustics: print and save the figures."""
+    from scenesim.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
+    from scenesim.crosscheck_bands import (
+        compare_bands_with_pyroomacoustics,
+        pyroomacoustics_air_table,
+    )
+
+    check = compare_bands_with_pyroomacoustics(room, args.source, mics, fs=args.fs, max_order=max_order)
+    numbers = check.to_dict()
+    what = " + ".join(w for w, on in (("octave-band materials", room.bands_hz is not None),
+                                      ("air absorption", room.air is not None)) if on)
+    print(f"pyroomacoustics 0.10.1 cross-check, {what} (max_order {max_order}):")
+    print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
+    print("  octave (Hz)         " + " ".join(f"{f:>7g}" for f in check.bands_hz))
+    print("  energy ours-theirs  " + " ".join(f"{v:+7.3f}" for v in check.band_energy_db) + " dB")
+    print("  T30 ours (s)        " + " ".join(f"{v:7.3f}" for v in check.t30_ours_s))
+    print("  T30 theirs (s)      " + " ".join(f"{v:7.3f}" for v in check.t30_theirs_s))
+    print(f"  max |T30 diff|      {100 * check.max_t30_rel_diff:.2f} %; max |energy diff| "
+          f"{check.max_band_energy_db:.3f} dB")
+    if room.air is not None:
+        ours = room.air.db_per_m(exact_midband_hz(OCTAVE_CENTERS_HZ)) * 1000.0
+        theirs = pyroomacoustics_air_table(room.air.temperature_c, room.air.humidity_pct) * 1000.0
+        numbers["air_iso9613_db_per_km"] = [float(v) for v in ours]
+        numbers["air_pyroomacoustics_table_db_per_km"] = [float(v) for v in theirs]
+        print("  air ISO 9613-1      " + " ".join(f"{v:7.2f}" for v in ours) + " dB/km (used on both sides)")
+        print("  air pra table       " + " ".join(f"{v:7.2f}" for v in theirs) + " dB/km (its own coarse class)")
+    path = out / "crosscheck.json"
+    path.write_text(json.dumps(numbers, indent=2))
+    return [path]
