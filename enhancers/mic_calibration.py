@@ -12,8 +12,12 @@ Estimator.  Per bin, one-pole averages that move only where the bin is not froze
     S[l] = S[l-1] + (1 - lam) (x[l] - S[l-1])   (active bins),   S[l] = S[l-1]   (frozen bins)
 
 with ``lam = exp(-hop / (fs tau_s))``: **time constant ``tau_s`` (default 1 s) of active
-time**; the estimate is within ~2 % (0.1 dB) of its final value after ~4 ``tau_s`` of
-noise-only time, and converges more slowly while a talker freezes it.
+time**.  To converge quickly from the start, the step of a bin's ``n``-th active frame is
+``max(1/n, 1 - lam)``: a plain running mean of everything seen until ``n`` reaches
+``~tau_s fs / hop`` frames (125), the one-pole after that.  Measured convergence in white
+diffuse noise with 1 dB / 5 deg / corners 80 and 120 Hz (the freeze rule below holds ~78 %
+of the bins there), worst bin from 200 Hz to 4 kHz: 0.8 dB / 7 deg after 1 s, 0.5 dB /
+3 deg after 4 s, 0.25 dB / 2.5 deg after 8 s.  A talker's frozen frames only delay it.
 
 * Gain: for a far-field source and for a diffuse field both mics receive the same
   power, so ``|r| = sqrt(S22 / S11)`` (near-field sources break this: see the freeze rule).
@@ -103,6 +107,7 @@ class CalibrationState:
     avg: np.ndarray          # complex (3, K)
     r_last: np.ndarray       # complex (K,) the estimate of the last update frame
     n_frames: int            # frames processed so far (decides the update frames)
+    counts: np.ndarray       # (K,) active frames so far per bin (the running-mean start)
     q_bin: GateState         # the per-bin freeze rule's state
     q_band: GateState        # the band freeze rule's state
 
@@ -147,7 +152,8 @@ class CalibrationParams(StftParams):
 
 def calibration_init(n_bins: int) -> CalibrationState:
     return CalibrationState(avg=np.zeros((3, n_bins), dtype=complex), r_last=np.ones(n_bins, dtype=complex),
-                            n_frames=0, q_bin=gate_init(n_bins), q_band=gate_init(n_bins))
+                            n_frames=0, counts=np.zeros(n_bins), q_bin=gate_init(n_bins),
+                            q_band=gate_init(n_bins))
 
 
 def _band(p: CalibrationParams, fs: int) -> slice:
@@ -259,7 +265,12 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
         return np.ones((0, K), dtype=complex), np.zeros((0, K), dtype=bool), state
     band = _band(p, fs)
     frozen, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
-    c = (1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s)))) * (~frozen)  # per-bin step, 0 where frozen
+    # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
+    # 1 - lam, then 1 - lam; 0 where frozen
+    active = ~frozen
+    counts = state.counts + np.cumsum(active, axis=0)
+    c = np.where(active, np.maximum(1.0 / np.maximum(counts, 1), 1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s)))),
+                 0.0)
     every = int(p.estimate_every)
     is_update = (state.n_frames + np.arange(F)) % every == 0
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
@@ -278,7 +289,7 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     held = np.concatenate([state.r_last[None], r_upd], axis=0)
     r_hat = held[np.cumsum(is_update)]
     values = dict(vars(state))
-    values.update(avg=a, r_last=held[-1].copy(), n_frames=state.n_frames + F, **changes)
+    values.update(avg=a, r_last=held[-1].copy(), n_frames=state.n_frames + F, counts=counts[-1].copy(), **changes)
     return r_hat, frozen, CalibrationState(**values)
 
 

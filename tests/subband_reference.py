@@ -80,7 +80,8 @@ def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[i
     """``r_hat (F, K)`` of ``mic-calibration`` by loops over frames and bins (band = first, last bin).
 
     Freeze: per bin from the cardioid powers of bins k-3, k-2, k+2, k+3; for the band from its sums
-    without bins k-1..k+1.  Averages S11, S22, S21 move by (1 - exp(-1/tau_frames)) where not frozen.
+    without bins k-1..k+1.  Averages S11, S22, S21 move by max(1/n, 1 - exp(-1/tau_frames)) at the
+    bin's n-th unfrozen frame, not at all where frozen.
     Every ``every``-th frame: slope = lag-one phase refined by the weighted fit a + b k + c/k (normal
     equations with the 1e-9 ridge of the implementation, columns 1, k/k_hi, k_lo/k), clipped to
     2 pi delay / N; S21 derotated; all three averaged over k +- max(smooth_bins, round(smooth_frac k));
@@ -110,13 +111,15 @@ def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[i
     rule = dict(lam=lam_gate, n_window=n_window)
     frozen = (_gate_on_powers(nF, nB, gate_db=freeze_db, **rule)
               | _gate_on_powers(bF, bB, gate_db=freeze_band_db, **rule))
-    step = 1 - math.exp(-1 / tau_frames)
     s = np.zeros((3, K), dtype=complex)
+    counts = np.zeros(K)
     r_hat = np.ones((F, K), dtype=complex)
     current = np.ones(K, dtype=complex)
     for f in range(F):
         for k in range(K):
             if not frozen[f, k]:
+                counts[k] += 1
+                step = max(1 / counts[k], 1 - math.exp(-1 / tau_frames))
                 for i, v in enumerate((abs(X1[f, k]) ** 2, abs(X2[f, k]) ** 2, X2[f, k] * np.conj(X1[f, k]))):
                     s[i, k] += step * (v - s[i, k])
         if f % every == 0:
