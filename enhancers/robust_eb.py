@@ -10,7 +10,11 @@ One WOLA filter bank carries all three steps per frame (so the latency is one fr
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain
    bound ``eq_noise_gain_db`` (default 9 dB: sensor self-noise leaves the output at most
-   9 dB above one mic's self-noise PSD in any bin) and an 80 Hz high-pass.
+   9 dB above one mic's self-noise PSD in any bin) and an 80 Hz high-pass;
+4. the DAS fallback (``das_mix``, see :mod:`enhancers.subband_eb`): per bin, the output
+   moves towards a delay-and-sum with the same look response where that has less noise --
+   where the noise is incoherent between the mics (wind, self-noise), which no differential
+   pattern can reduce.  Its weight learns only in bins the calibration does not freeze.
 
 Processing the calibrated pair with ``eb-subband`` as a separate stage would give the
 same operation up to one more frame of delay (a WOLA round trip between the stages).
@@ -52,7 +56,8 @@ class RobustElkoBeamformer(SubbandBase):
     Parameters (``RobustElkoBeamformer.Params``): the fields of ``eb-subband``
     (:class:`enhancers.subband_eb.SubbandElkoBeamformer`) with the gate on
     (``adapt_gate_db=3``, ``gate_floor_s=1``) and the noise-aware EQ on
-    (``eq_noise_gain_db=9``, ``eq_highpass_hz=80``), plus those of ``mic-calibration``
+    (``eq_noise_gain_db=9``, ``eq_highpass_hz=80``) and the DAS fallback on
+    (``das_mix=True``, ``mix_lam=0.99``), plus those of ``mic-calibration``
     (:class:`enhancers.mic_calibration.MicCalibration`).  ``calibrate=False`` skips step 1.
 
     Examples
@@ -73,6 +78,8 @@ class RobustElkoBeamformer(SubbandBase):
         gate_floor_s: float = 1.0
         eq_noise_gain_db: float | None = 9.0
         eq_highpass_hz: float = 80.0
+        das_mix: bool = True
+        mix_lam: float = 0.99
         calibrate: bool = True
 
         def __post_init__(self):
@@ -88,20 +95,22 @@ class RobustElkoBeamformer(SubbandBase):
         cal, sub = algo
         X1, X2 = X[0], X[1]
         record = {}
+        frozen = None
         if self.params.calibrate:
             r_hat, frozen, cal = calibration_step(X1, X2, cal, self.params, fs=fs, delay=self.delay_samples(fs))
             X2 = X2 / r_hat
             record.update(r_hat=r_hat, frozen=frozen)
-        Y, betas, G, sub = self._beamform(X1, X2, sub, fs)
-        record.update(beta=betas, eq=G)
+        # the DAS mix learns only where the calibration does too (no talker)
+        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=frozen)
+        record.update(beam)
         return Y[None], (cal, sub), record
 
     def _apply(self, record, X, fs):
         X2 = X[1] / record["r_hat"] if "r_hat" in record else X[1]
-        return self._apply_beam(X[0], X2, record["beta"], record["eq"], fs)[None]
+        return self._apply_beam(X[0], X2, record, fs)[None]
 
     def _trace(self, record):
-        trace = {"beta": record["beta"]}
+        trace = {k: record[k] for k in ("beta", "alpha") if k in record}
         if "r_hat" in record:
             trace.update(calibration_trace(record))
         return trace

@@ -40,6 +40,17 @@ every source, while a calibrated pair serves every direction and the diffuse fie
 What the real beta cannot do (tested): null a mismatched plane wave; the residual is then
 the mismatch term, which is why ``eb-subband`` alone degrades with mismatched mics.
 
+DAS fallback (``das_mix``, off by default here, on in ``eb-robust``).  For noise that is
+incoherent between the mics (wind, sensor self-noise) every differential pattern is worse
+than the mics themselves: its noise PSD re the look direction is ``N / (4 sin^2(wT))``
+(:mod:`enhancers.eq`), > 1 below ~2.7 kHz.  A delay-and-sum towards the look direction,
+scaled to the same look response ``L = |G 2 sin(wT)|``, ``Yo = L (X1 e^{-jwT} + X2) / 2``,
+halves it instead.  Per bin the output is ``Y = Yd - alpha D`` with ``D = Yd - Yo`` (no
+look-direction component, for matched mics) and ``alpha = clip(<Re(Yd D*)> / <|D|^2>, 0, 1)``,
+the least-squares weight from one-pole averages (``mix_lam``) over earlier unfrozen frames:
+``alpha -> 1`` in incoherent noise (closed form: ``<Yd Yo*> = <|Yo|^2>`` there), ``-> 0`` where
+the differential null wins (a rear plane wave).  ``trace["alpha"]``: ``(n_frames, n_bins)``.
+
 Equaliser: :func:`enhancers.eq.look_eq_gain` per bin (exact look-direction inverse,
 ``eq_max_gain_db`` cap; ``eq_noise_gain_db`` the noise-aware white-noise-gain bound;
 ``eq_highpass_hz``) times ``-j``: the look-direction response ``2j sin(wT) e^{-jwT}`` then
@@ -92,11 +103,13 @@ class SubbandState:
     p_b: np.ndarray
     p_1: np.ndarray
     gate: GateState
+    alpha: np.ndarray | None = None  # (K,) das_mix: averages of Re(Yd conj(D)) and |D|^2
+    p_d: np.ndarray | None = None
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
     z = np.zeros(n_bins)
-    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, gate=gate_init(n_bins))
+    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, gate=gate_init(n_bins), alpha=z, p_d=z)
 
 
 def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_window: int):
@@ -106,7 +119,8 @@ def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_w
 
 
 def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float, eps: float,
-                      gate_db: float | None = None, gate_lam: float | None = None, gate_window: int = 0):
+                      gate_db: float | None = None, gate_lam: float | None = None, gate_window: int = 0,
+                      extras: dict | None = None):
     """Per-bin NLMS over the frames of one block (vectorised over bins; a loop over frames).
 
     Parameters
@@ -116,6 +130,8 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     state : SubbandState
     mu, lam, eps : NLMS step, power smoothing per frame, regularisation re ``P_1``.
     gate_db, gate_lam, gate_window : adaptation gate (None: off); window in frames (0: no floor).
+    extras : dict, optional
+        Filled with ``"frozen"`` (the gate's mask or None) and ``"p1"`` (smoothed ``|X1|^2``, (F, K)).
 
     Returns
     -------
@@ -132,21 +148,52 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     gain = mu * (cF.real * cB.real + cF.imag * cB.imag) / den
     keep = 1.0 - mu * bb / den
     changes = {}
+    frozen = None
     if gate_db is not None:
         frozen, changes = _gate_frozen(cF, cB, state, gate_db=gate_db,
                                        lam=lam if gate_lam is None else gate_lam, n_window=gate_window)
         gain[frozen] = 0.0
         keep[frozen] = 1.0
-    betas = np.empty(cF.shape)
-    b = state.beta.copy()
-    for i in range(F):  # the clip makes the recursion nonlinear: loop over frames, vectorised over bins
-        betas[i] = b
-        b *= keep[i]
-        b += gain[i]
-        np.clip(b, 0.0, 1.0, out=b)
+    if extras is not None:
+        extras.update(frozen=frozen, p1=p1)
+    betas, b = _clipped_recursion(keep, gain, state.beta)
     values = dict(vars(state))
     values.update(beta=b, p_b=pb[-1].copy(), p_1=p1[-1].copy(), **changes)
     return betas, SubbandState(**values)
+
+
+def _clipped_recursion(keep: np.ndarray, gain: np.ndarray, w0: np.ndarray):
+    """``w[l+1] = clip(w[l] keep[l] + gain[l], 0, 1)`` from ``w[0] = w0``: ``(w[0..F-1] (F, K), w[F])``."""
+    out = np.empty(keep.shape)
+    w = w0.copy()
+    for i in range(keep.shape[0]):  # the clip makes it nonlinear: loop over frames, vectorised over bins
+        out[i] = w
+        w *= keep[i]
+        w += gain[i]
+        np.minimum(w, 1.0, out=w)
+        np.maximum(w, 0.0, out=w)
+    return out, w
+
+
+def das_mix_step(Yd, D, p1, frozen, state: SubbandState, *, lam: float, eps: float):
+    """Per-bin least-squares DAS mix weight: ``Y = Yd - alpha D``, ``alpha`` in ``[0, 1]``.
+
+    ``alpha[l] = clip(S_YD / (S_DD + eps P_1), 0, 1)`` from one-pole averages (``lam`` per frame)
+    of ``Re(Yd conj(D))`` and ``|D|^2`` over the frames *before* ``l`` that the beta gate did
+    not freeze (so neither the talker nor the frame itself steers its own weight).
+    ``state.alpha`` / ``state.p_d`` carry the two averages.  Returns ``(alphas (F, K), s_yd, s_dd)``.
+    """
+    yd = Yd.real * D.real + Yd.imag * D.imag
+    dd = D.real**2 + D.imag**2
+    c = np.full(dd.shape, 1.0 - lam) if frozen is None else np.where(frozen, 0.0, 1.0 - lam)
+    alphas = np.empty(dd.shape)
+    s_yd, s_dd = state.alpha.copy(), state.p_d.copy()
+    for i in range(dd.shape[0]):  # time-varying one-pole per bin: loop over frames, vectorised over bins
+        alphas[i] = s_yd / (s_dd + eps * p1[i] + TINY)
+        s_yd += c[i] * (yd[i] - s_yd)
+        s_dd += c[i] * (dd[i] - s_dd)
+    np.clip(alphas, 0.0, 1.0, out=alphas)
+    return alphas, s_yd, s_dd
 
 
 @dataclass(frozen=True)
@@ -164,6 +211,8 @@ class SubbandEbParams(StftParams):
     eq_max_gain_db: float = 25.0
     eq_noise_gain_db: float | None = None
     eq_highpass_hz: float = 0.0
+    das_mix: bool = False
+    mix_lam: float = 0.95
 
     def _check_subband(self):
         self._check_stft()
@@ -182,6 +231,9 @@ class SubbandEbParams(StftParams):
         if self.eq_noise_gain_db is not None:
             check_range("eq_noise_gain_db", self.eq_noise_gain_db, -20.0, 60.0)
         check_range("eq_highpass_hz", self.eq_highpass_hz, 0.0, 1000.0)
+        check_range("mix_lam", self.mix_lam, 0.0, 1.0, hi_open=True)
+        if not isinstance(self.das_mix, bool):
+            raise ParameterError("das_mix", self.das_mix, "True or False")
 
 
 class SubbandBase(StftEnhancer):
@@ -209,20 +261,49 @@ class SubbandBase(StftEnhancer):
         # time-domain integrator undoes too), leaving the front mic delayed by T
         return -1j * g
 
-    def _beamform(self, X1, X2, sub: SubbandState, fs: int):
-        """``(Y (F, K), betas, eq gains, new state)`` for the frames of one block."""
+    def _das(self, X1, X2, G, fs):
+        """Delay-and-sum towards the look direction with the differential path's look gain:
+        ``|G 2 sin(wT)| (X1 e^{-jwT} + X2) / 2`` (look response = that of ``G (cF - beta cB)``)."""
+        wt = bin_omega(int(self.params.frame_len)) * self.delay_samples(fs)
+        look = np.abs(G) * np.abs(2.0 * np.sin(wt))
+        return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
+
+    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None):
+        """``(Y (F, K), record, new state)`` for the frames of one block.
+
+        ``mix_frozen`` (F, K): bins where the DAS mix weight must not learn either (OR-ed with the gate).
+        """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
+        extras: dict = {}
         betas, sub = subband_beta_step(
             cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
             gate_db=None if p.adapt_gate_db is None else float(p.adapt_gate_db),
-            gate_lam=None if p.gate_lam is None else float(p.gate_lam), gate_window=self._gate_window(fs))
+            gate_lam=None if p.gate_lam is None else float(p.gate_lam), gate_window=self._gate_window(fs),
+            extras=extras)
         G = self._eq(betas, fs)
-        return G * (cF - betas * cB), betas, G, sub
+        Y = G * (cF - betas * cB)
+        record = {"beta": betas, "eq": G}
+        if p.das_mix and Y.shape[0]:
+            D = Y - self._das(X1, X2, G, fs)
+            frozen = extras["frozen"]
+            if mix_frozen is not None:
+                frozen = mix_frozen if frozen is None else (frozen | mix_frozen)
+            alphas, a, pd = das_mix_step(Y, D, extras["p1"], frozen, sub, lam=float(p.mix_lam), eps=float(p.eps))
+            values = dict(vars(sub))
+            values.update(alpha=a, p_d=pd)
+            sub = SubbandState(**values)
+            Y = Y - alphas * D
+            record["alpha"] = alphas
+        return Y, record, sub
 
-    def _apply_beam(self, X1, X2, betas, G, fs):
+    def _apply_beam(self, X1, X2, record, fs):
         cF, cB = self._cardioids(X1, X2, fs)
-        return G * (cF - betas * cB)
+        G = record["eq"]
+        Y = G * (cF - record["beta"] * cB)
+        if "alpha" in record:
+            Y = Y - record["alpha"] * (Y - self._das(X1, X2, G, fs))
+        return Y
 
 
 class SubbandElkoBeamformer(SubbandBase):
@@ -238,6 +319,7 @@ class SubbandElkoBeamformer(SubbandBase):
     beta0 : initial beta of every bin in ``[0, 1]`` (default 0: forward cardioid).
     adapt_gate_db, gate_lam, gate_floor_s : the per-bin adaptation gate (None = off, default).
     eq, eq_max_gain_db, eq_noise_gain_db, eq_highpass_hz : equaliser (:mod:`enhancers.eq`).
+    das_mix, mix_lam : the DAS fallback (off by default) and its averages' factor per frame (0.95).
 
     Examples
     --------
@@ -261,11 +343,11 @@ class SubbandElkoBeamformer(SubbandBase):
         return subband_init(n_bins, float(self.params.beta0))
 
     def _frames(self, X, algo, fs):
-        Y, betas, G, algo = self._beamform(X[0], X[1], algo, fs)
-        return Y[None], algo, {"beta": betas, "eq": G}
+        Y, record, algo = self._beamform(X[0], X[1], algo, fs)
+        return Y[None], algo, record
 
     def _apply(self, record, X, fs):
-        return self._apply_beam(X[0], X[1], record["beta"], record["eq"], fs)[None]
+        return self._apply_beam(X[0], X[1], record, fs)[None]
 
     def _trace(self, record):
-        return {"beta": record["beta"]}
+        return {k: record[k] for k in ("beta", "alpha") if k in record}

@@ -120,7 +120,7 @@ def test_vectorised_step_matches_slow_reference():
         X[0], X[1], delay=delay, frame_len=64, band=(band.start, band.stop - 1), tau_frames=0.05 * FS / 32,
         lam_gate=p.gate_lam_cal, n_window=int(np.ceil(0.1 * FS / 32)), freeze_db=p.freeze_db,
         freeze_band_db=p.freeze_band_db, every=3, smooth_bins=p.smooth_bins, smooth_frac=p.smooth_frac,
-        max_gain_db=p.max_gain_db, max_phase_deg=p.max_phase_deg)
+        max_gain_db=p.max_gain_db, max_phase_deg=p.max_phase_deg, min_coherence=p.min_coherence)
     state, parts, masks = calibration_init(X.shape[2]), [], []
     for lo, hi in ((0, 7), (7, 8), (8, X.shape[1])):
         r, fr, state = calibration_step(X[0, lo:hi], X[1, lo:hi], state, p, fs=FS, delay=delay)

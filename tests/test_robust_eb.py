@@ -30,7 +30,7 @@ def white():
     return np.random.default_rng(31).standard_normal((2, 10 * FS))
 
 
-@pytest.mark.parametrize("name, kwargs", [("eb-robust", {}), ("eb-subband", {"eq_noise_gain_db": 9.0})])
+@pytest.mark.parametrize("name, kwargs", [("eb-robust", {"das_mix": False}), ("eb-subband", {"eq_noise_gain_db": 9.0})])
 def test_self_noise_never_exceeds_the_eq_bound(name, kwargs, white):
     """Spatially white noise alone (independent, unit variance per mic): the output PSD re one mic's stays
     <= 9 dB + 0.5 dB (estimation spread of a 600-frame periodogram average) in every bin, and the bound
@@ -107,3 +107,50 @@ def test_robust_ss_is_robust_then_ss(rng):
     assert isinstance(e, Chain) and e.tags.latency_samples == 2 * 255
     y = make("ss").process(make("eb-robust").process(x, FS).output, FS).output
     np.testing.assert_allclose(e.process(x, FS).output, y, rtol=0, atol=1e-12)
+
+
+def test_das_fallback_takes_over_in_incoherent_noise(white):
+    """Spatially white noise only: where the differential path is >= 4 dB noisier than the look-aligned
+    delay-and-sum (closed form N/(2 sin^2 wT) with beta ~0, which holds below 4 kHz: 150 Hz-1.7 kHz) the mix
+    weight alpha converges to >= 0.9 (closed form 1; measured >= 0.96), and the output self-noise stays
+    <= -2 dB re one mic in every bin (closed form -3 dB for alpha = 1 and look gain <= 1; measured -2.3)."""
+    r = make("eb-robust").process(white, FS)
+    w_t = 2 * np.pi * np.arange(129) / NFFT * 0.998
+    with np.errstate(divide="ignore"):
+        diff_over_das_db = 10 * np.log10(2 / (2 * np.sin(w_t) ** 2))
+    f = np.arange(129) * FS / NFFT
+    band = (diff_over_das_db >= 4.0) & (f >= 150) & (f <= 4000)
+    alpha = r.trace["alpha"][FS // 128:].mean(axis=0)
+    assert alpha[band].min() >= 0.9, alpha[band].min()
+    y = r.output[0, FS:]
+    assert (10 * np.log10(_psd(y)[1:-1] / _psd(white[0, FS:])[1:-1])).max() <= -2.0
+
+
+def test_das_fallback_stays_off_for_a_rear_plane_wave(rng):
+    """White noise from 135 deg: the differential null wins, alpha stays <= 0.05 on average in every bin
+    from 200 Hz to 6 kHz after 3 s (closed form 0; measured 0.03)."""
+    x = plane_wave_pair(rng.standard_normal(6 * FS), az_deg=135)
+    alpha = make("eb-robust").process(x, FS).trace["alpha"][3 * FS // 128:].mean(axis=0)
+    f = np.arange(129) * FS / NFFT
+    band = (f >= 200) & (f <= 6000)
+    assert alpha[band].max() <= 0.05
+
+
+def test_das_fallback_keeps_the_look_response(white):
+    """The delay-and-sum path is scaled to the differential path's look response, so a look-direction plane
+    wave replayed through eb-subband adapted with alpha ~1 (incoherent noise) matches das_mix=False within
+    0.1 dB and 1 deg from 600 Hz to 6 kHz (D = Yd - Yo has no look component for matched mics).  Below
+    600 Hz the frame-wise model of the one-sample delay makes the differential path itself deviate from
+    its ideal look response (0.6 dB at 200 Hz; see test_subband_eb), which the delay-and-sum does not."""
+    n = white.shape[1]
+    imp = np.zeros(n)
+    imp[n // 2] = 1.0
+    look = plane_wave_pair(imp, az_deg=0)
+    y_mix = make("eb-subband", das_mix=True).process(white, FS).replay(look)[0]
+    y_ref = make("eb-subband").process(white, FS).replay(look)[0]
+    seg = slice(n // 2 - 2048, n // 2 + 2048)
+    H = np.fft.rfft(y_mix[seg]) / np.fft.rfft(y_ref[seg])
+    f = np.fft.rfftfreq(4096, 1 / FS)
+    band = (f >= 600) & (f <= 6000)
+    assert np.max(np.abs(20 * np.log10(np.abs(H[band])))) <= 0.1
+    assert np.max(np.abs(np.degrees(np.angle(H[band])))) <= 1.0

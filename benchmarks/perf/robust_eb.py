@@ -39,7 +39,7 @@ from data_recipes.artificial_voice import artificial_voice
 from data_recipes.noise_synthesis import synthesize_noise
 from scenesim.freefield import plane_wave
 from scenesim.geometry import MicPair
-from scenesim.noise_fields import diffuse_noise
+from scenesim.noise_fields import diffuse_noise, wind_noise
 
 FS = 16000
 PAIR = MicPair()
@@ -83,6 +83,9 @@ def _scene(noise_kind: str, seconds: float, seed: int):
     if noise_kind == "diffuse":
         src = synthesize_noise("babble", n, fs=FS, rng=rng, n_channels=2).signal
         v = diffuse_noise(n, PAIR, fs=FS, source=src)
+    elif noise_kind == "wind":
+        src = synthesize_noise("wind", n, fs=FS, rng=rng, n_channels=2).signal
+        v = wind_noise(n, PAIR, fs=FS, wind_speed_mps=5.0, source=src)
     else:
         src = synthesize_noise("babble", n, fs=FS, rng=rng).signal[0]
         v = plane_wave(src, PAIR, azimuth_deg=float(noise_kind), fs=FS)
