@@ -10,7 +10,7 @@ Prints four markdown tables:
    ``eb-subband``).
 2. SNR-I (replay, algorithms.md section 8) with speech (built-in artificial voice) from 45 deg
    far field and babble from one far-field source at 135 or 240 deg or a diffuse field
-   (sinc coherence), 5 dB SNR at the front mic; ideal mics vs the rear mic times
+   (sinc coherence), or synthesized wind with Corcos coherence (5 m/s), 5 dB SNR at the front mic; ideal mics vs the rear mic times
    ``10^(1/20) e^{j 5 deg}``.  Scored after ``--settle-s`` seconds (the convergence time
    we allow: calibration time constant 1 s plus the speech-gated pauses); target:
    ``eb-robust`` within 2 dB of its ideal-sensor value, ``eb`` losing > 8 dB.
@@ -96,7 +96,7 @@ def _scene(noise_kind: str, seconds: float, seed: int):
 def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3) -> list[tuple]:
     """Rows ``(noise, mismatch label, SNR-I per enhancer...)`` for one seed."""
     rows = []
-    for kind in ("135", "240", "diffuse"):
+    for kind in ("135", "240", "diffuse", "wind"):
         s0, v0 = _scene(kind, seconds, seed)
         for mism in ((0.0, 0.0), (1.0, 5.0)):
             s, v = (rear_mismatch(c, gain_db=mism[0], phase_deg=mism[1]) for c in (s0, v0))
