@@ -41,9 +41,10 @@ What the real beta cannot do (tested): null a mismatched plane wave; the residua
 the mismatch term, which is why ``eb-subband`` alone degrades with mismatched mics.
 
 DAS fallback (``das_mix``, off by default here, on in ``eb-robust``).  For noise that is
-incoherent between the mics (wind, sensor self-noise) every differential pattern is worse
-than the mics themselves: its noise PSD re the look direction is ``N / (4 sin^2(wT))``
-(:mod:`enhancers.eq`), > 1 below ~2.7 kHz.  A delay-and-sum towards the look direction,
+incoherent between the mics (wind, sensor self-noise) a differential pattern is worse
+than the mics themselves at low frequencies: its noise PSD re the look direction is
+``N / (4 sin^2(wT))`` (:mod:`enhancers.eq`), for the cardioid > 1 below ~2 kHz and +19 dB
+at 200 Hz.  A delay-and-sum towards the look direction,
 scaled to the same look response ``L = |G 2 sin(wT)|``, ``Yo = L (X1 e^{-jwT} + X2) / 2``,
 halves it instead.  Per bin the output is ``Y = Yd - alpha D`` with ``D = Yd - Yo`` (no
 look-direction component, for matched mics) and ``alpha = clip(<Re(Yd D*)> / <|D|^2>, 0, 1)``,
@@ -55,8 +56,9 @@ Equaliser: :func:`enhancers.eq.look_eq_gain` per bin (exact look-direction inver
 ``eq_max_gain_db`` cap; ``eq_noise_gain_db`` the noise-aware white-noise-gain bound;
 ``eq_highpass_hz``) times ``-j``: the look-direction response ``2j sin(wT) e^{-jwT}`` then
 becomes the front mic delayed by ``T`` (not its 90-degree-shifted version), so the output
-lines up with the reference at the declared latency plus ``T fs`` samples.  ``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.
-Latency ``frame_len - 1`` samples.
+lines up with the reference at the declared latency plus ``T fs`` samples.
+``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.  Latency
+``frame_len - 1`` samples.
 """
 
 from __future__ import annotations
