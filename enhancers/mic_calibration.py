@@ -39,10 +39,11 @@ of the bins there), worst bin from 200 Hz to 4 kHz: 0.8 dB / 7 deg after 1 s, 0.
   and the phase estimate noisier), clipped to ``+-max_gain_db`` and ``+-max_phase_deg``:
   ``r_hat = |r| e^{j phi}``.
 * Where the band-averaged coherence ``|S21| / sqrt(S11 S22)`` is below ``min_coherence``
-  (0.3) plus the chance level ``1/sqrt(n)`` of ``n`` averaged frames (``n`` capped at the
-  one-pole's ``(1 + lam)/(1 - lam)``) the phase has nothing to measure -- incoherent noise (wind, self-noise), or diffuse
-  noise above ~5.5 kHz for 2.14 cm -- and the previous phase is kept (0 at the start):
-  without this rule incoherent noise walks it to the +-30 deg clip.  The gain needs no
+  (0.3) the phase has nothing to measure -- incoherent noise (wind, self-noise), or diffuse
+  noise above ~5.5 kHz for 2.14 cm -- so the last measured phase is kept, times
+  ``phase_leak`` (0.98) per update (a 1.6 s fade towards 0, so that a phase seen by chance
+  in the first frames does not stay): without this rule incoherent noise walks it to the
+  +-30 deg clip.  The gain needs no
   coherence (equal powers hold for incoherent noise of equal level too).
 
 Freeze rule (frozen while near-field speech dominates).  The talker is in front of the
@@ -130,6 +131,7 @@ class CalibrationParams(StftParams):
     max_gain_db: float = 6.0
     max_phase_deg: float = 30.0
     min_coherence: float = 0.3
+    phase_leak: float = 0.98
     freeze_db: float = 2.0
     freeze_band_db: float = 1.0
     gate_lam_cal: float = 0.7
@@ -150,6 +152,7 @@ class CalibrationParams(StftParams):
         check_range("max_gain_db", self.max_gain_db, 0.0, 40.0)
         check_range("max_phase_deg", self.max_phase_deg, 0.0, 180.0)
         check_range("min_coherence", self.min_coherence, 0.0, 1.0)
+        check_range("phase_leak", self.phase_leak, 0.0, 1.0)
         check_range("freeze_db", self.freeze_db, -60.0, 60.0)
         check_range("freeze_band_db", self.freeze_band_db, -60.0, 60.0)
         if self.floor_lam_cal is not None:
@@ -240,13 +243,12 @@ def _smooth_bins(x: np.ndarray, half_width: np.ndarray) -> np.ndarray:
 def estimate_from_averages(avg: np.ndarray, *, band: slice, max_slope: float, smooth_bins: int,
                            smooth_frac: float, max_gain_db: float, max_phase_deg: float,
                            min_coherence: float = 0.0, prev_phase: np.ndarray | None = None,
-                           n_eff: np.ndarray | None = None) -> np.ndarray:
+                           phase_leak: float = 1.0) -> np.ndarray:
     """``r_hat (F, K)`` from averages ``avg (F, 3, K)`` = (S11, S22, S21) (see module docstring).
 
-    Where the smoothed coherence ``|S21| / sqrt(S11 S22)`` is below ``min_coherence + 1/sqrt(n_eff)``
-    (``n_eff (F, K)``: frames averaged; ``1/sqrt(n)`` is the coherence that ``n`` frames of incoherent
-    noise show by chance) the phase of the previous estimate (``prev_phase (K,)``, else of the last
-    row that had it) is kept.
+    Where the band-averaged coherence ``|S21| / sqrt(S11 S22)`` is below ``min_coherence`` the phase
+    of the previous estimate (``prev_phase (K,)``, else of the last row that had it) is kept, times ``phase_leak`` per update since that row (a pull towards 0:
+    a phase seen by chance in incoherent noise fades instead of staying).
     """
     s11, s22, s21 = avg[:, 0].real, avg[:, 1].real, avg[:, 2]
     slope = _propagation_slope(s21, band, max_slope)
@@ -257,12 +259,12 @@ def estimate_from_averages(avg: np.ndarray, *, band: slice, max_slope: float, sm
     gain_db = np.clip(10.0 * np.log10((s22 + TINY) / (s11 + TINY)), -max_gain_db, max_gain_db)
     phase = np.clip(np.angle(derot), -math.radians(max_phase_deg), math.radians(max_phase_deg))
     if min_coherence > 0 and phase.shape[0]:
-        chance = 0.0 if n_eff is None else 1.0 / np.sqrt(np.maximum(n_eff, 1.0))
-        valid = np.abs(derot) >= (min_coherence + chance) * np.sqrt(s11 * s22)
+        valid = np.abs(derot) >= min_coherence * np.sqrt(s11 * s22)
         rows = np.maximum.accumulate(np.where(valid, np.arange(phase.shape[0])[:, None], -1), axis=0)
         held = phase[np.maximum(rows, 0), np.arange(phase.shape[1])[None, :]]
         prev = np.zeros(phase.shape[1]) if prev_phase is None else prev_phase
-        phase = np.where(rows >= 0, held, prev[None, :])
+        u = np.arange(phase.shape[0])[:, None]
+        phase = np.where(rows >= 0, held * phase_leak ** (u - rows), prev[None, :] * phase_leak ** (u + 1))
     return 10.0 ** (gain_db / 20.0) * np.exp(1j * phase)
 
 
@@ -298,8 +300,6 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     is_update = (state.n_frames + np.arange(F)) % every == 0
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
     avg = np.empty((int(is_update.sum()), 3, K), dtype=complex)
-    lam = math.exp(-int(p.hop) / (fs * float(p.tau_s)))
-    n_eff = np.minimum(counts[is_update], (1.0 + lam) / (1.0 - lam))  # an EWMA averages (1+lam)/(1-lam) frames
     a = state.avg.copy()
     j = 0
     for i in range(F):  # a time-varying one-pole per bin: loop over frames, vectorised over bins
@@ -311,7 +311,7 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
                                    smooth_bins=int(p.smooth_bins), smooth_frac=float(p.smooth_frac),
                                    max_gain_db=float(p.max_gain_db), max_phase_deg=float(p.max_phase_deg),
                                    min_coherence=float(p.min_coherence), prev_phase=np.angle(state.r_last),
-                                   n_eff=n_eff)
+                                   phase_leak=float(p.phase_leak))
     # every frame uses the estimate of the last update frame (the previous block's when none yet)
     held = np.concatenate([state.r_last[None], r_upd], axis=0)
     r_hat = held[np.cumsum(is_update)]
@@ -337,7 +337,8 @@ class MicCalibration(StftEnhancer):
     fit_band_hz : band of the propagation-slope estimate and of the freeze rule (default 500-4000 Hz).
     smooth_bins : the estimate is averaged over ``2 smooth_bins + 1`` bins (default 1).
     max_gain_db, max_phase_deg : clip of the estimate (default 6 dB, 30 deg).
-    min_coherence : below it the phase estimate is held (default 0.3).
+    min_coherence, phase_leak : below that coherence the phase is held, fading by ``phase_leak``
+        per update (default 0.3, 0.98).
     smooth_frac : the averaging band widens to ``+-smooth_frac k`` bins (default 0.06).
     estimate_every : frames between recomputations of ``r_hat`` (default 4).
     freeze_db, freeze_band_db : freeze thresholds of the per-bin and band rules (default 2 and 1 dB above

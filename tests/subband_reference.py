@@ -76,7 +76,7 @@ def _gate_on_powers(eF, eB, *, gate_db: float, lam: float, n_window: int) -> np.
 def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[int, int], tau_frames: float,
                           lam_gate: float, n_window: int, freeze_db: float, freeze_band_db: float,
                           every: int, smooth_bins: int, smooth_frac: float, max_gain_db: float,
-                          max_phase_deg: float, min_coherence: float):
+                          max_phase_deg: float, min_coherence: float, phase_leak: float):
     """``r_hat (F, K)`` of ``mic-calibration`` by loops over frames and bins (band = first, last bin).
 
     Freeze: per bin from the cardioid powers of bins k-3, k-2, k+2, k+3; for the band from its sums
@@ -86,8 +86,7 @@ def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[i
     equations with the 1e-9 ridge of the implementation, columns 1, k/k_hi, k_lo/k), clipped to
     2 pi delay / N; S21 derotated; all three averaged over k +- max(smooth_bins, round(smooth_frac k));
     gain sqrt(S22/S11) and phase clipped; the phase kept from the previous estimate where the averaged
-    coherence |S21| / sqrt(S11 S22) < min_coherence + 1/sqrt(n), n = active frames of the bin (capped at
-    (1 + lam)/(1 - lam)).
+    coherence |S21| / sqrt(S11 S22) < min_coherence, times phase_leak per update.
     """
     F, K = X1.shape
     lo, hi = band
@@ -125,16 +124,14 @@ def calibration_reference(X1, X2, *, delay: float, frame_len: int, band: tuple[i
                 for i, v in enumerate((abs(X1[f, k]) ** 2, abs(X2[f, k]) ** 2, X2[f, k] * np.conj(X1[f, k]))):
                     s[i, k] += step * (v - s[i, k])
         if f % every == 0:
-            lam = math.exp(-1 / tau_frames)
-            n_eff = np.minimum(counts, (1 + lam) / (1 - lam))
             current = _estimate_reference(s, lo, hi, delay, frame_len, smooth_bins, smooth_frac, max_gain_db,
-                                          max_phase_deg, min_coherence, np.angle(current), n_eff)
+                                          max_phase_deg, min_coherence, np.angle(current), phase_leak)
         r_hat[f] = current
     return r_hat, frozen
 
 
 def _estimate_reference(s, lo, hi, delay, frame_len, smooth_bins, smooth_frac, max_gain_db, max_phase_deg,
-                        min_coherence, prev_phase, n_eff):
+                        min_coherence, prev_phase, phase_leak):
     K = s.shape[1]
     s11, s22, s21 = s[0].real, s[1].real, s[2]
     lag = sum(s21[k + 1] * np.conj(s21[k]) for k in range(lo, hi))
@@ -160,8 +157,7 @@ def _estimate_reference(s, lo, hi, delay, frame_len, smooth_bins, smooth_frac, m
         a22 = sum(s22[j] for j in js) / len(js)
         g = min(max(10 * math.log10((a22 + 1e-300) / (a11 + 1e-300)), -max_gain_db), max_gain_db)
         phi = min(max(np.angle(d), -math.radians(max_phase_deg)), math.radians(max_phase_deg))
-        chance = 1 / math.sqrt(max(n_eff[k], 1.0))
-        if abs(d) < (min_coherence + chance) * math.sqrt(a11 * a22):  # too little coherence: keep the phase
-            phi = prev_phase[k]
+        if abs(d) < min_coherence * math.sqrt(a11 * a22):  # too little coherence: the old phase, fading
+            phi = prev_phase[k] * phase_leak
         out[k] = 10 ** (g / 20) * np.exp(1j * phi)
     return out
