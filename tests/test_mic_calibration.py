@@ -137,8 +137,7 @@ def test_vectorised_step_matches_slow_reference():
 def test_phase_does_not_wander_in_incoherent_noise(min_coherence):
     """Spatially white noise (self-noise only: nothing to measure a phase from): the estimated phase stays
     within 4 deg of 0 over the last 5 s of 10 s (measured 3.1 deg; 2.1 with another seed).  Control: without
-    the coherence rule
-    (min_coherence=0) it walks to the 30 deg clip."""
+    the coherence rule (min_coherence=0) it walks to the 30 deg clip."""
     x = np.random.default_rng(25).standard_normal((2, 10 * FS))
     phase = np.abs(make("mic-calibration", min_coherence=min_coherence).process(x, FS).trace["rear_phase_deg"])
     if min_coherence > 0:
