@@ -10,7 +10,9 @@ One WOLA filter bank carries all three steps per frame (so the latency is one fr
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain
    bound ``eq_noise_gain_db`` (default 9 dB: sensor self-noise leaves the output at most
-   9 dB above one mic's self-noise PSD in any bin) and an 80 Hz high-pass;
+   9 dB above one mic's self-noise PSD in any bin), an 80 Hz high-pass, and the 90-degree
+   phase correction (``eq_phase``: the output is the look-direction speech, not its shifted
+   version);
 4. the DAS fallback (``das_mix``, see :mod:`enhancers.subband_eb`): per bin, the output
    moves towards a delay-and-sum with the same look response where that has less noise --
    where the noise is incoherent between the mics (wind, self-noise), which no differential
@@ -56,7 +58,7 @@ class RobustElkoBeamformer(SubbandBase):
     Parameters (``RobustElkoBeamformer.Params``): the fields of ``eb-subband``
     (:class:`enhancers.subband_eb.SubbandElkoBeamformer`) with the gate on
     (``adapt_gate_db=3``, ``gate_floor_s=1``) and the noise-aware EQ on
-    (``eq_noise_gain_db=9``, ``eq_highpass_hz=80``) and the DAS fallback on
+    (``eq_noise_gain_db=9``, ``eq_highpass_hz=80``, ``eq_phase=True``) and the DAS fallback on
     (``das_mix=True``, ``mix_lam=0.99``), plus those of ``mic-calibration``
     (:class:`enhancers.mic_calibration.MicCalibration`).  ``calibrate=False`` skips step 1.
 
@@ -78,6 +80,7 @@ class RobustElkoBeamformer(SubbandBase):
         gate_floor_s: float = 1.0
         eq_noise_gain_db: float | None = 9.0
         eq_highpass_hz: float = 80.0
+        eq_phase: bool = True
         das_mix: bool = True
         mix_lam: float = 0.99
         calibrate: bool = True

@@ -146,8 +146,8 @@ def test_das_fallback_keeps_the_look_response(white):
     imp = np.zeros(n)
     imp[n // 2] = 1.0
     look = plane_wave_pair(imp, az_deg=0)
-    y_mix = make("eb-subband", das_mix=True).process(white, FS).replay(look)[0]
-    y_ref = make("eb-subband").process(white, FS).replay(look)[0]
+    y_mix = make("eb-subband", das_mix=True, eq_phase=True).process(white, FS).replay(look)[0]
+    y_ref = make("eb-subband", eq_phase=True).process(white, FS).replay(look)[0]
     seg = slice(n // 2 - 2048, n // 2 + 2048)
     H = np.fft.rfft(y_mix[seg]) / np.fft.rfft(y_ref[seg])
     f = np.fft.rfftfreq(4096, 1 / FS)

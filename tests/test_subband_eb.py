@@ -152,13 +152,13 @@ def test_gated_streaming_equals_batch(rng):
 
 def test_look_direction_equalised_flat_and_undistorted():
     """Impulse plane wave from 0 deg: the exact look equaliser gives 0 dB within 0.5 dB from 150 Hz to 7 kHz,
-    and the phase is that of the front mic delayed by latency + T (255 + 0.998 samples) within 5 deg
-    there (no 90 deg shift: cross-correlation with the reference peaks at the declared latency)."""
+    and with eq_phase the phase is that of the front mic delayed by latency + T (255 + 0.998 samples)
+    within 5 deg there (measured 2.3 deg; no 90 deg shift)."""
     n = 16384
     imp = np.zeros(n)
     imp[4000] = 1.0
     x = plane_wave_pair(imp, az_deg=0)
-    y = make("eb-subband").process(x, FS).output[0]
+    y = make("eb-subband", eq_phase=True).process(x, FS).output[0]
     H = np.fft.rfft(y) / np.fft.rfft(x[0])
     f = np.fft.rfftfreq(n, 1 / FS)
     band = (f >= 150) & (f <= 7000)
