@@ -62,7 +62,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-PRESETS = ("thesis", "phone", "mismatch", "reverb", "angles", "smoke")
+PRESETS = ("thesis", "phone", "mismatch", "peers", "reverb", "angles", "smoke")
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1

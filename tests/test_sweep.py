@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("reverb", 36, 5), ("angles", 24, 5),
+    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("peers", 45, 8), ("reverb", 36, 5), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
 def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancers):
@@ -89,7 +89,7 @@ def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancer
     assert sweep.name == name and sweep.description
     assert len(sweep.conditions()) == n_conditions
     assert len(sweep.enhancers) == n_enhancers
-    assert set(PRESETS) == {"thesis", "phone", "mismatch", "reverb", "angles", "smoke"}
+    assert set(PRESETS) == {"thesis", "phone", "mismatch", "peers", "reverb", "angles", "smoke"}
 
 
 def test_thesis_is_the_thesis_setup_with_babble_0db_first():
