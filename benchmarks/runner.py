@@ -532,8 +532,11 @@ def _progress(total: int, name: str, *, enabled: bool):
     return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
 
 
-def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None) -> list[Path]:
-    """Write ``out_dir/report`` (Markdown, CSV, PNG) from every row of ``out_dir/results.sqlite``."""
+def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
+    """Write ``out_dir/report`` (Markdown, CSV, PNG, index.html) from every row of ``out_dir/results.sqlite``.
+
+    ``listen``: a :class:`benchmarks.listening.ListenOptions` (which conditions get audio).
+    """
     from benchmarks.report import write_report
 
     own = store is None
@@ -545,7 +548,8 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None)
     finally:
         if own:
             store.close()
-    return list(write_report(rows, Path(out_dir), meta=report_meta(runs, Path(out_dir) / "results.sqlite")))
+    meta = report_meta(runs, Path(out_dir) / "results.sqlite")
+    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:

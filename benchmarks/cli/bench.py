@@ -35,8 +35,10 @@ def add_parser(subparsers) -> None:
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
     run.set_defaults(func=_run)
 
-    rep = sub.add_parser("report", help="write tables (Markdown, CSV) and figures (PNG) from a store")
+    rep = sub.add_parser("report", help="write tables (Markdown, CSV), figures (PNG) and index.html (with audio) from a store")
     rep.add_argument("dir", type=Path, metavar="DIR", help="a directory holding results.sqlite")
+    rep.add_argument("--listen", nargs="+", default=(), metavar="CONDITION_ID", help="give these conditions audio players in index.html (default: a spread of noises and SNRs)")
+    rep.add_argument("--listen-count", type=_nonneg_int, default=None, metavar="N", help="how many conditions get audio when --listen is not given (default 6; 0: none)")
     rep.set_defaults(func=_report)
 
     lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
@@ -101,9 +103,11 @@ def _run(args) -> int:
 
 
 def _report(args) -> int:
+    from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
     from benchmarks.runner import write_store_report
 
-    files = write_store_report(args.dir)
+    count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
+    files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
     for f in files:
         print(f)
     return 0
