@@ -37,10 +37,11 @@ _SAFE_SRC = re.compile(r"^[A-Za-z0-9_.-]+$")  # a file beside the page, nothing 
 
 
 def inline(text: str) -> str:
-    """Escape ``text`` for HTML, then render ``**bold**`` and ```code``` spans."""
+    """Escape ``text`` for HTML, then render ``**bold**``, ``*italic*`` and ```code``` spans."""
     out = html.escape(text, quote=True)
     out = re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
-    return re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", out)
+    out = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", out)
+    return re.sub(r"(?<![*\w])\*([^*\s][^*]*?)\*(?![*\w])", r"<em>\1</em>", out)
 
 
 def _cells(line: str) -> list[str]:
@@ -114,6 +115,8 @@ def markdown_to_html(text: str) -> str:
             blocks.append(_image(_IMAGE.match(stripped)))
             j = i + 1
         else:
+            # A paragraph: this line (always, so the loop advances) and the plain lines after it.
+            j = i + 1
             while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |!\[)", lines[j].strip()):
                 j += 1
             blocks.append("<p>" + inline(" ".join(x.strip() for x in lines[i:j])) + "</p>")
