@@ -43,7 +43,7 @@ def add_parser(subparsers) -> None:
 
     cmp_ = sub.add_parser(
         "compare",
-        help="paired differences (B - A) between two stores of the same sweep, with 95% CIs over seeds",
+        help="paired differences (B - A) between two stores of the same sweep, with 95%% CIs over seeds",
     )
     cmp_.add_argument("dir_a", type=Path, metavar="DIR_A", help="baseline store directory")
     cmp_.add_argument("dir_b", type=Path, metavar="DIR_B", help="store compared with it")
@@ -102,6 +102,9 @@ def _run(args) -> int:
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
         print(f"report:  {index}")
+        page = next((f for f in summary.report_files if f.name == "index.html"), None)
+        if page:
+            print(f"page:    {page}")
     if summary.report_error:
         print(
             f"scenesim: error: the report could not be written ({summary.report_error}); the results "
