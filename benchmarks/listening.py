@@ -100,6 +100,10 @@ class Listening:
     audio_format: str | None = None
 
 
+class DataReproError(RuntimeError):
+    """The recorded data cannot be re-rendered here (shown on the page, never raised out)."""
+
+
 # -- choosing conditions -------------------------------------------------------------------
 
 
@@ -221,10 +225,6 @@ def render_condition(
         except Exception as exc:
             notes.append(f"{name}: not played, re-running it failed ({type(exc).__name__}: {exc})")
     return signals, cond.fs, notes
-
-
-class DataReproError(RuntimeError):
-    """The recorded data cannot be re-rendered here (shown on the page, never raised out)."""
 
 
 def match_loudness(signals: Mapping[str, np.ndarray], fs: int) -> tuple[dict[str, np.ndarray], dict[str, float]]:

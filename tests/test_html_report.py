@@ -133,6 +133,17 @@ def test_match_loudness_gives_equal_active_levels_and_a_common_peak_limit(rng):
     assert la == pytest.approx(lb, abs=0.05) and la < TARGET_LEVEL_DBFS - 1.0
 
 
+def test_audio_falls_back_to_16_bit_wav_without_vorbis(monkeypatch):
+    import soundfile
+
+    from benchmarks.listening import audio_format
+
+    monkeypatch.setattr(soundfile, "available_subtypes", lambda fmt=None: {"VORBIS": "Vorbis"})
+    assert audio_format() == ("ogg", "OGG", "VORBIS")
+    monkeypatch.setattr(soundfile, "available_subtypes", lambda fmt=None: {})
+    assert audio_format() == ("wav", "WAV", "PCM_16")
+
+
 # -- re-rendering from the store -----------------------------------------------------------
 
 
