@@ -17,6 +17,7 @@ import os
 import select
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -96,20 +97,22 @@ class DevToolsPipe:
         to_browser_r, self._to_browser = os.pipe()
         self._from_browser, from_browser_w = os.pipe()
 
-        def child_fds():  # runs in the child before exec: put the pipe ends at fds 3 and 4
-            # Copy both ends out of the way first (one may already sit at 3 or 4), then
-            # dup2, which also makes 3 and 4 inheritable (os.pipe's fds are close-on-exec).
-            a, b = os.dup(to_browser_r), os.dup(from_browser_w)
-            os.dup2(a, 3)
-            os.dup2(b, 4)
-
+        # A small Python trampoline puts our pipe ends at fds 3 and 4 and execs the browser
+        # (no preexec_fn, unsafe in a process with threads; no shell, whose redirections
+        # only reach fds 0-9).  Copies first, as an end may already sit at 3 or 4; then 3
+        # and 4 are made inheritable (a dup2 onto itself would keep close-on-exec).
+        trampoline = (
+            "import os, sys; r, w = (os.dup(int(a)) for a in sys.argv[1:3]); "
+            "os.dup2(r, 3); os.dup2(w, 4); os.set_inheritable(3, True); os.set_inheritable(4, True); "
+            "os.execv(sys.argv[3], sys.argv[3:])"
+        )
+        args = [binary, *FLAGS, f"--user-data-dir={self._profile}", "--remote-debugging-pipe", "about:blank"]
         self.proc = subprocess.Popen(
-            [binary, *FLAGS, f"--user-data-dir={self._profile}", "--remote-debugging-pipe", "about:blank"],
+            [sys.executable, "-c", trampoline, str(to_browser_r), str(from_browser_w), *args],
             stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,
-            close_fds=False,
-            preexec_fn=child_fds,
+            pass_fds=(to_browser_r, from_browser_w),
         )
         os.close(to_browser_r)
         os.close(from_browser_w)
