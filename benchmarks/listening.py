@@ -120,6 +120,11 @@ def choose_conditions(rows: Sequence[Mapping[str, Any]], *, count: int) -> list[
     Noises take turns (alphabetical); each noise's SNRs are taken lowest, middle, highest,
     then the rest.  For a (noise, SNR) the condition with the lowest seed, first in the
     store's order, is used.
+
+    >>> rows = [{"condition_id": f"{n}{s}", "noise": n, "snr_in_db": s, "seed": 0, "status": "ok"}
+    ...         for n in ("wind", "babble") for s in (0, 5, 10)]
+    >>> choose_conditions(rows, count=4)
+    ['babble0', 'wind0', 'babble5', 'wind5']
     """
     best: dict[tuple[str, float], tuple[int, int, str]] = {}
     for k, r in enumerate(rows):
@@ -232,6 +237,11 @@ def match_loudness(signals: Mapping[str, np.ndarray], fs: int) -> tuple[dict[str
 
     Returns the scaled signals and each one's total gain in dB.  A silent signal is left
     at zero (gain 0 dB).
+
+    >>> x = np.sin(np.arange(16000) / 5.0)
+    >>> _, gains = match_loudness({"a": 0.1 * x, "b": 0.01 * x}, 16000)
+    >>> round(gains["b"] - gains["a"], 6)
+    20.0
     """
     from scenesim.mixing import active_speech_power
 
