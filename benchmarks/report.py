@@ -31,6 +31,8 @@ from typing import Any
 from benchmarks import figures, report_sensors
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
+from benchmarks.html_report import write_index
+from benchmarks.listening import ListenOptions
 from benchmarks.report_tables import (
     CONDITION_KEYS,
     METRIC_FIELDS,
@@ -452,7 +454,11 @@ def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[st
 
 
 def write_report(
-    rows: Iterable[Mapping[str, Any]], out_dir, *, meta: Mapping[str, Any] | None = None
+    rows: Iterable[Mapping[str, Any]],
+    out_dir,
+    *,
+    meta: Mapping[str, Any] | None = None,
+    listen: ListenOptions | None = None,
 ) -> list[Path]:
     """Write the report for ``rows`` under ``out_dir/report/``; returns the written paths.
 
@@ -466,6 +472,9 @@ def write_report(
         The sweep's output directory (the report goes to its ``report/`` subfolder).
     meta : mapping, optional
         Shown at the top of ``summary.md`` (preset, versions, date, ...).
+    listen : ListenOptions, optional
+        Conditions given audio players in ``index.html`` (:mod:`benchmarks.html_report`;
+        default: a spread of noises and input SNRs, re-rendered from ``out_dir``'s store).
     """
     report_dir = Path(out_dir) / REPORT_DIRNAME
     report_dir.mkdir(parents=True, exist_ok=True)
@@ -592,4 +601,5 @@ def write_report(
         lines += [f"![{p.stem}]({p.name})\n" for p in fig_paths]
     summary = report_dir / "summary.md"
     summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return [summary, *paths, *fig_paths]
+    page = write_index(report_dir, summary.read_text(encoding="utf-8"), all_rows, store_dir=Path(out_dir), listen=listen)
+    return [summary, *paths, *fig_paths, *page]

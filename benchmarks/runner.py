@@ -562,8 +562,11 @@ def _progress(total: int, name: str, *, enabled: bool):
     return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
 
 
-def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None) -> list[Path]:
-    """Write ``out_dir/report`` (Markdown, CSV, PNG) from every row of ``out_dir/results.sqlite``."""
+def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
+    """Write ``out_dir/report`` (Markdown, CSV, PNG, index.html) from every row of ``out_dir/results.sqlite``.
+
+    ``listen``: a :class:`benchmarks.listening.ListenOptions` (which conditions get audio).
+    """
     from benchmarks.report import write_report
 
     own = store is None
@@ -582,7 +585,7 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None)
         other = sum(r.get("sweep_version") not in (None, version) for r in rows)
         rows = [r for r in rows if r.get("sweep_version") in (None, version)]
         meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
-    return list(write_report(rows, Path(out_dir), meta=meta))
+    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:
