@@ -588,9 +588,14 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     if n_mix >= n_taps:
         return early[..., :n_taps]
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    # Level of the tail matched over [max(t_mix / 2, direct + 10 ms), t_mix): late enough to
+    # hold no direct sound, long enough (>= 5 ms) to average many images; else analytic level.
+    direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
+    lo = max(n_mix // 2, math.ceil((direct + 0.01) * fs))
+    window = (lo, n_mix) if n_mix - lo >= 0.005 * fs else None
     tail = diffuse_tail(
         room, mics, n_taps=n_taps, fs=fs, c=c, reflection=refl, pattern=pattern,
-        max_order=max_order, rng=rng,
+        max_order=max_order, rng=rng, early=early, window=window,
     )
     return crossfade(early, tail, n_mix, SINC_HALF_WIDTH)
 
