@@ -25,6 +25,7 @@ def scatter_images(
 ):  # pragma: no cover - compiled; covered through scenesim.ism tests (coverage cannot see it)
     """Scatter all images onto ``grid`` (n_bands, n_mics, n_fine) in place.
 
+    grid : float64 (n_bands, n_mics, n_fine), accumulated in place
     offx : (n_mics, nx) signed mic-minus-image offsets along x, mirrored by the image parity
         (so that the emission direction in the source's frame is ``(offx, offy, offz) / r``)
     gx : (n_bands, nx) per-band reflection gains of the x factor; likewise y, z
@@ -116,7 +117,7 @@ def scatter_omni(dx2, gx, dyz2, gyz, counts, grid, scale, g0, q_max):  # pragma:
 
 
 def warm_up() -> None:
-    """Compile (or load from cache) the kernel on a tiny input."""
+    """Compile (or load from cache) both kernels on tiny inputs."""
     z = np.zeros((1, 1))
     g = np.ones((1, 1))
     scatter_images(
@@ -124,3 +125,4 @@ def warm_up() -> None:
         np.ones(1, np.int64), np.array([1.0, 0.0, 0.0]), np.zeros((1, 0)),
         np.zeros((1, 1, 16)), 1.0, 4.0, 8.0,
     )
+    scatter_omni(z + 1.0, np.ones(1), z, np.ones(1), np.ones(1, np.int64), np.zeros((1, 16)), 1.0, 4.0, 8.0)
