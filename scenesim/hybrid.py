@@ -29,15 +29,19 @@ a 2 cm pair needs ~0.99 at 500 Hz.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import fft as sfft
 from scipy import signal
 
-_N_MU = 48  # Gauss-Legendre nodes in cos(polar angle) over [0, 1]
-_N_PHI = 48  # Gauss-Legendre nodes in azimuth over [0, pi/2]
-_N_TIME = 160  # envelope evaluated on this many times and interpolated in log energy
+_N_MU = 40  # Gauss-Legendre nodes in cos(polar angle) over [0, 1]
+_N_PHI = 40  # Gauss-Legendre nodes in azimuth over [0, pi/2]
+_N_TIME = 96  # envelope evaluated on this many times and interpolated in log energy
+_KAPPA_MAX = 1e6  # per metre: stands for an anechoic wall (b = 0), whose images carry nothing
 
 
+@functools.lru_cache(maxsize=1)
 def _octant_directions():
     """Unit vectors (n, 3) in the first octant and quadrature weights (n,) summing to 1."""
     x_mu, w_mu = np.polynomial.legendre.leggauss(_N_MU)
@@ -48,7 +52,10 @@ def _octant_directions():
     s = np.sqrt(1.0 - mu**2)
     u = np.stack([s * np.cos(phi), s * np.sin(phi), mu], axis=-1).reshape(-1, 3)
     w = np.outer(w_mu, w_phi).ravel()
-    return u, w / w.sum()
+    u.flags.writeable = False  # cached
+    w = w / w.sum()
+    w.flags.writeable = False
+    return u, w
 
 
 def _mirror_mean_d2(u, pattern, n_bands):
@@ -75,15 +82,12 @@ def expected_energy(dims_m, reflection, times_s, *, fs, c, pattern=None, max_ord
     dims = np.asarray(dims_m, dtype=float)
     b = np.abs(np.atleast_2d(reflection))
     with np.errstate(divide="ignore"):
-        logb = np.log(b)  # -inf for an anechoic wall: those directions carry no energy
-    kappa = -(logb[:, 0::2] + logb[:, 1::2]) / dims  # (n_bands, 3), per metre
+        logb = np.log(b)  # -inf for an anechoic wall
+    kappa = np.minimum(-(logb[:, 0::2] + logb[:, 1::2]) / dims, _KAPPA_MAX)  # (n_bands, 3) per m
     u, w = _octant_directions()
     d2 = _mirror_mean_d2(u, pattern, b.shape[0])  # (n_bands, n_dir)
     r = c * np.asarray(times_s, dtype=float)  # (n_t,)
-    with np.errstate(invalid="ignore"):
-        expo = -r[None, :, None] * (kappa @ u.T)[:, None, :]  # (n_bands, n_t, n_dir)
-    expo = np.nan_to_num(expo, nan=-np.inf)  # 0 * inf on an axis the direction does not touch
-    gain = np.exp(expo)
+    gain = np.exp(-r[None, :, None] * (kappa @ u.T)[:, None, :])  # (n_bands, n_t, n_dir)
     if max_order is not None:
         order = r[:, None] * (u / dims).sum(axis=1)[None, :]  # (n_t, n_dir) L1 order
         gain = gain * (order <= max_order + 0.5)[None]
@@ -107,6 +111,10 @@ def coherent_noise(mics_m, n_taps, *, fs, c, rng) -> np.ndarray:
         return sfft.irfft(z, n_fft, axis=-1)[:, :n_taps]
     f = sfft.rfftfreq(n_fft, 1.0 / fs)
     dist = np.linalg.norm(mics[:, None, :] - mics[None, :, :], axis=-1)
+    if n_mics == 2:  # closed form: X1 = Z1, X2 = g Z1 + sqrt(1 - g^2) Z2
+        g = np.sinc(2.0 * f * dist[0, 1] / c)
+        x = np.stack([z[0], g * z[0] + np.sqrt(np.clip(1.0 - g * g, 0.0, None)) * z[1]])
+        return sfft.irfft(x, n_fft, axis=-1)[:, :n_taps]
     gamma = np.sinc(2.0 * f[:, None, None] * dist[None] / c)  # (n_f, m, m)
     lam, vec = np.linalg.eigh(gamma)
     mix = vec * np.sqrt(np.clip(lam, 0.0, None))[:, None, :]  # (n_f, m, m)
@@ -114,19 +122,20 @@ def coherent_noise(mics_m, n_taps, *, fs, c, rng) -> np.ndarray:
     return sfft.irfft(x, n_fft, axis=-1)[:, :n_taps]
 
 
-def level_correction(early: np.ndarray, envelope2: np.ndarray, lo: int, hi: int, fs: float) -> float:
+def level_correction(early: np.ndarray, envelope2: np.ndarray, lo: int, hi: int) -> float:
     """Energy ratio of the rendered early ISM to the expected energy over taps ``[lo, hi)``.
 
     Why: the rendered ISM carries less energy above the infrasonic build-up than the
     incoherent image sum ``sum a^2`` (measured 0.80-0.88 of it after a 20-500 Hz high-pass
     at RT60 1 s: the image lattice is not a Poisson process), so the tail is scaled to
-    the early part it continues.  Both are compared after a 50 Hz zero-phase high-pass (the
-    early part's DC build-up is ~10x its energy at 0.1 s); white noise loses 2 * 50 / fs of its
-    energy to that filter, which is put back.  ``early`` (n_mics, n), ``envelope2`` (n,).
+    the early part it continues.  The early part's infrasonic build-up (~10x its energy at
+    0.1 s) is removed by a least-squares line over the window (it varies slowly over these
+    few tens of ms); white noise loses 2 of its N degrees of freedom to that, put back.
+    ``early`` (n_mics, n), ``envelope2`` (n,).
     """
-    sos = signal.butter(4, 50.0, btype="highpass", fs=fs, output="sos")
-    e = signal.sosfiltfilt(sos, early, axis=-1)[..., lo:hi]
-    expected = float(np.mean(envelope2[lo:hi])) * (1.0 - 2.0 * 50.0 / fs)
+    e = signal.detrend(early[..., lo:hi], axis=-1, type="linear")
+    n = hi - lo
+    expected = float(np.mean(envelope2[lo:hi])) * (1.0 - 2.0 / n)
     measured = float(np.mean(e**2))
     return measured / expected if expected > 0 and measured > 0 else 1.0
 
@@ -151,7 +160,7 @@ def diffuse_tail(
     for band in range(n_bands):
         env2 = np.exp(np.interp(t, t_grid, np.log(np.maximum(e[band], tiny))))
         if early is not None and window is not None:
-            env2 *= level_correction(early[band], env2[: early.shape[-1]], *window, fs)
+            env2 *= level_correction(early[band], env2[: early.shape[-1]], *window)
         tail[band] = noise * np.sqrt(env2)
     return tail
 

@@ -22,23 +22,36 @@ gains ``gx[i] gy[j] gz[k]``.  The ``(j, k)`` pairs are precomputed once, sorted 
 (L1 order, or the smallest squared distance over the mics) so that each ``i`` slice takes a
 prefix; images are rendered in bounded chunks, so memory does not grow with the image count.
 
-Two renderers:
+Renderers:
 
-* ``"exact"``: the windowed-sinc sum above, vectorised over images and taps; equals the
-  scalar triple-loop reference in ``tests/ism_reference.py`` to 1e-10.
+* ``"exact"``: the windowed-sinc sum above, vectorised over images and taps in chunks of
+  :data:`_EXACT_CHUNK` images (memory bounded: ~45 MiB peak whatever the image count; it
+  grew with RT60^2 before, 1.26 GiB at 2 s); equals the scalar triple-loop reference in
+  ``tests/ism_reference.py`` to 1e-10.  Pure numpy: the reference the fast path is tested
+  against.
 * ``"fast"``: each image's amplitude is scattered onto a time grid oversampled by
-  :data:`FAST_OVERSAMPLING` with 4-point (cubic) Lagrange weights (``np.bincount``), then the
-  grid is filtered by the same windowed sinc sampled at the fine rate and decimated by U
-  (polyphase: U branch convolutions done as float32 FFTs, which beat
-  ``scipy.signal.upfirdn``'s direct polyphase loop by ~5x at these lengths).  This equals
-  the exact sum with the kernel cubic-interpolated between fine-grid points: interpolation
-  error <= ~0.46 / U^4 of the peak (U = 16: ~7e-6); measured against ``"exact"``: relative
-  L2 error 4e-6..7e-6, max error 7e-6 of the peak (``tests/test_ism.py`` asserts 3e-5).
-  Cost per image is O(1), independent of the kernel length; images arriving after the
-  last tap are pruned.
+  :data:`FAST_OVERSAMPLING` with 4-point (cubic) Lagrange weights by a compiled loop
+  (:mod:`scenesim.ism_kernels`, numba), then the grid is filtered by the same windowed sinc
+  sampled at the fine rate and decimated by U (polyphase: U branch convolutions done as
+  float32 FFTs, which beat ``scipy.signal.upfirdn``'s direct polyphase loop by ~5x at these
+  lengths).  This equals the exact sum with the kernel cubic-interpolated between fine-grid
+  points: interpolation error <= ~0.46 / U^4 of the peak (U = 16: ~7e-6); measured against
+  ``"exact"``: relative L2 error 4e-6..7e-6 (``tests/test_ism.py`` asserts 3e-5).  Cost per
+  image is O(1), independent of the kernel length; images arriving after the last tap are
+  pruned.  Memory: the grid, n_bands x n_mics x ~16 n_taps float64.
+* ``"hybrid"``: the images reaching taps before the mixing time, rendered by ``"fast"`` (so
+  those taps equal the full ``"fast"`` RIR's), then a seeded stochastic tail with the ISM's
+  expected per-band energy decay and the diffuse-field coherence between the mics, level
+  matched to the early part (:mod:`scenesim.hybrid`); 40-tap power-complementary crossfade.
 
 ``method="auto"`` uses ``"exact"`` for small image sets (<= :data:`AUTO_EXACT_MAX_TERMS`
 image-mic terms) and ``"fast"`` otherwise.
+
+Frequency-dependent gains (source directivity, :mod:`scenesim.directivity`; per-band wall
+reflections via :func:`image_source_rir_bands`) render one RIR per band in the same pass
+over the images -- each image's emission direction is the image-to-mic direction with the
+components of the oddly-reflected axes reversed -- and merge the bands with zero-phase
+complementary filters (:mod:`scenesim.ism_bands`).
 """
 
 from __future__ import annotations
