@@ -269,3 +269,34 @@ def test_hybrid_mixing_time_beyond_length_is_the_full_ism():
     hyb = image_source_rir(room, (1, 1, 1), (3, 2, 1.5), method="hybrid", mixing_time_s=0.2, **kw)
     np.testing.assert_allclose(hyb, full, rtol=0, atol=1e-6 * np.abs(full).max())
     assert math.isclose(merge_bands(full[None], 8000, (1000.0,)).sum(), full.sum())
+
+
+# --------------------------------------------------------------------------- CLI
+@pytest.mark.slow  # ~10 s: seven pyroomacoustics rooms and the cross-check figure
+def test_cli_rir_hybrid_talker_compare(tmp_path, capsys):
+    """`scenesim rir --method hybrid --directivity talker --compare pyroomacoustics` prints and
+    stores the per-octave directivity agreement (oracle: pyroomacoustics CardioidFamily with each
+    octave's p, tolerance 5e-3 relative L2 as test_cardioid_matches_pyroomacoustics) and the
+    hybrid-vs-full figures (early part 1e-3 of the peak: the band merge rings ~10 ms around
+    the mixing time; T30 ratio within 10 % at RT60 0.3 s)."""
+    import json
+
+    from benchmarks.cli.main import main
+
+    out = tmp_path / "rir"
+    rc = main([
+        "rir", "--dims", "5", "4", "3", "--rt60", "0.3", "--source", "1.3", "1.1", "1.5",
+        "--pair-center", "3.2", "2.5", "1.4", "--out", str(out), "--directivity", "talker",
+        "--source-azimuth", "30", "--method", "hybrid", "--max-order", "12",
+        "--compare", "pyroomacoustics",
+    ])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "4000 Hz band" in text and "hybrid vs full ISM" in text
+    numbers = json.loads((out / "crosscheck.json").read_text())
+    assert len(numbers["directivity"]) == 7
+    assert max(max(row["rel_l2"]) for row in numbers["directivity"]) < 5e-3
+    assert numbers["hybrid"]["early_max_error_rel_peak"] < 1e-3
+    assert abs(numbers["hybrid"]["t30_ratio"] - 1) < 0.1
+    meta = json.loads((out / "rir.json").read_text())
+    assert meta["method"] == "hybrid" and meta["directivity"]["kind"] == "talker"
