@@ -66,7 +66,7 @@ from scipy import signal
 
 from scenesim.directivity import Directivity
 from scenesim.errors import ParameterError
-from scenesim.ism_bands import merge_bands
+from scenesim.ism_bands import check_bands, merge_bands
 from scenesim.room import ShoeBox
 from scenesim.validate import check_choice, check_fs, check_int, check_positive, check_range
 
@@ -407,6 +407,19 @@ def _pattern_of(directivity):
     return directivity.axis, directivity.coefficient_array
 
 
+def _bands_of(directivity, reflection_bands, bands_hz) -> tuple:
+    """Band centres of the render: the directivity's and/or ``bands_hz``; (1000,) for one band."""
+    if bands_hz is not None:
+        bands_hz = tuple(check_bands(bands_hz).tolist())
+    if reflection_bands is not None and bands_hz is None:
+        raise ParameterError("bands_hz", bands_hz, "band centres in Hz with reflection_bands")
+    if directivity is not None and bands_hz is not None and directivity.bands_hz != bands_hz:
+        raise ParameterError("bands_hz", bands_hz, f"the directivity's bands {directivity.bands_hz}")
+    if bands_hz is not None:
+        return bands_hz
+    return (1000.0,) if directivity is None else directivity.bands_hz
+
+
 def _band_reflection(room, reflection_bands, n_bands):
     """Per-band wall pressure reflections (n_bands, 6): the room's, or the caller's per band."""
     if reflection_bands is None:
@@ -507,6 +520,8 @@ def image_source_rir(
     c: float | None = None,
     method: str = "auto",
     directivity: Directivity | None = None,
+    reflection_bands=None,
+    bands_hz=None,
     mixing_time_s: float | None = None,
     seed: int | np.random.Generator = 0,
 ) -> np.ndarray:
@@ -546,6 +561,13 @@ def image_source_rir(
         Source directivity (:mod:`scenesim.directivity`), evaluated per image at its emission
         direction; with several bands one RIR per band is rendered and merged
         (:mod:`scenesim.ism_bands`).  None: omnidirectional.
+    reflection_bands : (n_bands, 6) array, optional
+        Per-band wall pressure reflections ``sqrt(1 - alpha)`` in wall order (frequency-
+        dependent absorption), rendered per band and merged; needs ``bands_hz``.  Default:
+        the room's, every band.
+    bands_hz : (n_bands,) array, optional
+        Band centres of ``reflection_bands`` (must equal ``directivity.bands_hz`` when both
+        are given).
     mixing_time_s : float, optional
         Hybrid only: end of the image-source part, default :data:`DEFAULT_MIXING_TIME_S`.
     seed : int or numpy.random.Generator
@@ -566,8 +588,9 @@ def image_source_rir(
         room, source_m, mics_m, fs, method, c, max_order, reflection_sign, highpass_hz
     )
     pattern = _pattern_of(directivity)
-    n_bands = 1 if directivity is None else directivity.n_bands
-    refl = _band_reflection(room, None, n_bands)
+    bands = _bands_of(directivity, reflection_bands, bands_hz)
+    n_bands = len(bands)
+    refl = _band_reflection(room, reflection_bands, n_bands)
     if method != "hybrid":
         if mixing_time_s is not None:
             raise ParameterError("mixing_time_s", mixing_time_s, "only with method='hybrid'")
@@ -577,7 +600,7 @@ def image_source_rir(
         h_bands = _hybrid(
             room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed
         )
-    h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, directivity.bands_hz)
+    h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
         sos = signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
         h = signal.sosfilt(sos, h, axis=-1)

@@ -87,6 +87,38 @@ def test_omni_directivity_is_the_omni_rir():
     np.testing.assert_allclose(b, a, rtol=0, atol=1e-12 * np.abs(a).max())
 
 
+def test_per_band_reflections_equal_per_band_rooms_merged():
+    """Frequency-dependent absorption hook: rendering with reflection_bands equals rendering one
+    room per band (absorption alpha_b, independent ShoeBox) and merging them with the same
+    band filters.  Oracle: those per-band rooms; tolerance 1e-9 of the peak."""
+    dims, src, mics = (5.0, 4.0, 3.0), (1.3, 1.1, 1.5), ((3.2, 2.5, 1.4), (3.2214, 2.5, 1.4))
+    bands = (250.0, 1000.0, 4000.0)
+    alphas = np.array([[0.1, 0.2, 0.15, 0.1, 0.3, 0.05], [0.3, 0.35, 0.4, 0.2, 0.5, 0.1],
+                       [0.6, 0.5, 0.7, 0.4, 0.8, 0.3]])
+    kw = {"fs": 16000, "max_order": 6, "length_s": 0.12}
+    got = image_source_rir(ShoeBox(dims, 0.2), src, mics, reflection_bands=np.sqrt(1 - alphas),
+                           bands_hz=bands, **kw)
+    per_room = np.stack([image_source_rir(ShoeBox(dims, tuple(a)), src, mics, **kw) for a in alphas])
+    ref = merge_bands(per_room, 16000, bands)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+    assert _rel_l2(got, per_room[1]) > 1e-2  # the bands really differ
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"reflection_bands": np.full((2, 6), 0.9)}, "bands_hz"),
+        ({"reflection_bands": np.full((2, 6), 0.9), "bands_hz": (500.0,)}, "reflection_bands"),
+        ({"bands_hz": (500.0, 2000.0), "directivity": Directivity([[1.0]])}, "bands_hz"),
+        ({"directivity": "cardioid"}, "directivity"),
+    ],
+)
+def test_bad_band_settings_raise(kwargs, name):
+    room = ShoeBox((4.0, 3.0, 2.5), 0.3)
+    with pytest.raises(ParameterError, match=name):
+        image_source_rir(room, (1, 1, 1), (3, 2, 1.5), fs=16000, max_order=2, **kwargs)
+
+
 # --------------------------------------------------------------------------- directivity
 @pytest.mark.parametrize("method", ["exact", "fast"])
 def test_directivity_matches_loop_reference(method):
