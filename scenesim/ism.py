@@ -523,7 +523,7 @@ def image_source_rir(
     reflection_bands=None,
     bands_hz=None,
     mixing_time_s: float | None = None,
-    seed: int | np.random.Generator = 0,
+    seed: int | np.random.Generator | None = None,
 ) -> np.ndarray:
     """Room impulse responses from one source to every mic by the image-source method.
 
@@ -570,8 +570,10 @@ def image_source_rir(
         are given).
     mixing_time_s : float, optional
         Hybrid only: end of the image-source part, default :data:`DEFAULT_MIXING_TIME_S`.
-    seed : int or numpy.random.Generator
-        Hybrid only: seed of the stochastic tail (default 0: reproducible).
+    seed : int or numpy.random.Generator, optional
+        Hybrid only: seed of the stochastic tail.  Default: derived from the room, source and
+        mic positions (reproducible, and different for two sources in one scene, whose tails
+        would otherwise be the same noise and correlated).
 
     Returns
     -------
@@ -626,6 +628,9 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     early = _render(imgs, n_early, fs, c, "fast", pattern)
     if n_mix >= n_taps:
         return early[..., :n_taps]
+    if seed is None:  # geometry-derived: positions in micrometres as the seed's entropy
+        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
+        seed = np.random.SeedSequence([int(w) % 2**63 for w in words])
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     # Level of the tail matched over [max(t_mix / 2, direct + 10 ms), t_mix): late enough to
     # hold no direct sound, long enough (>= 5 ms) to average many images; else analytic level.
