@@ -53,7 +53,8 @@ def add_parser(subparsers):
                         "stochastic tail with the ISM's decay and diffuse coherence")
     p.add_argument("--mixing-time", type=float, default=None, metavar="S",
                    help="hybrid only: end of the image-source part in seconds (default 0.08)")
-    p.add_argument("--seed", type=int, default=0, help="hybrid only: seed of the tail (default 0)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="hybrid only: seed of the tail (default: derived from the positions)")
     p.add_argument("--directivity", choices=("omni", "cardioid-family", "talker"), default="omni",
                    help="source directivity: cardioid-family (p + (1-p) cos, --directivity-p) or "
                         "talker (front/back ratio rising with frequency, per octave)")
