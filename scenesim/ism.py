@@ -149,6 +149,8 @@ def _build_images(room, src, mics, *, max_order, radius_m, sign, drop_silent=Tru
     b = np.atleast_2d(room.reflection if reflection is None else reflection)
     if max_order is not None:
         nmax = np.full(3, max_order)
+        if radius_m is not None:  # both: the L1 ball cut to the sphere's bounding box
+            nmax = np.minimum(nmax, np.ceil(radius_m / dims).astype(int) + 1)
     else:
         # |i| L - L <= |x_img - x_mic| for any mic inside the room, so this bounds the sphere.
         nmax = np.ceil(radius_m / dims).astype(int) + 1
@@ -324,7 +326,8 @@ def _render_fast(imgs: _Images, n_taps: int, fs, c, pattern=None, oversampling: 
     n_fine = n_blocks * u
     q_max = g0 + float(n_taps - 1 + half) * u  # images later than this cannot reach the last tap
     scale = fs * u / c  # metres -> fine-grid samples
-    # float32 grid: the FFT stage below is float32 anyway; halves the scatter's memory traffic.
+    # float64 grid: exact accumulation order does not matter then (reciprocity holds to 1e-12);
+    # the FFT stage below runs in float32.
     grid = np.zeros((n_bands, n_mics, n_fine))
     if pattern is None and n_bands == 1:
         dyz2 = imgs.offy[:, imgs.pj] ** 2 + imgs.offz[:, imgs.pk] ** 2
@@ -452,7 +455,8 @@ def image_source_rir_bands(
     ``reflection_bands[b]`` (default: the room's, every band) and the directivity's row ``b``
     (then ``n_bands`` must equal ``directivity.n_bands``).  Merge with
     :func:`scenesim.ism_bands.merge_bands`.  ``radius_m`` additionally keeps only images
-    within that distance of a mic (the hybrid renderer's early part).  Other parameters as
+    within that distance of a mic (the hybrid renderer's early part; with ``max_order``, the
+    L1 images within the sphere's bounding box).  Other parameters as
     :func:`image_source_rir` (``method`` in {"auto", "exact", "fast"}).
 
     Example
