@@ -54,6 +54,17 @@ def test_exact_chunking_does_not_change_the_result(monkeypatch):
     np.testing.assert_allclose(small, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
 
 
+def test_fast_workspace_reuse_is_invisible():
+    """The fast renderer reuses its zeroed buffers between calls: a render, a longer and a
+    shorter one in between, and the first again must be bitwise identical (oracle: itself)."""
+    room = ShoeBox((5.0, 4.0, 3.0), 0.3)
+    src, mics = (1.3, 1.1, 1.5), ((3.2, 2.5, 1.4), (3.2214, 2.5, 1.4))
+    first = image_source_rir(room, src, mics, fs=16000, max_order=15, method="fast")
+    image_source_rir(room, src, mics, fs=16000, max_order=25, method="fast")
+    image_source_rir(room, src, mics, fs=16000, max_order=5, method="fast")
+    np.testing.assert_array_equal(image_source_rir(room, src, mics, fs=16000, max_order=15, method="fast"), first)
+
+
 # --------------------------------------------------------------------------- bands
 def test_band_weights_partition_of_unity():
     """Each frequency's band weights sum to 1 (tolerance 1e-12) and lie in [0, 1]."""
