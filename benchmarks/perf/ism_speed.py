@@ -13,8 +13,8 @@ Also printed: the ratio of process CPU times (pyroomacoustics runs ``num_threads
 2 on this machine; ours one), the agreement (max relative L2 over the two mics after alignment).
 
 Hybrid rows: ``method="hybrid"`` (default mixing time) against the full ISM (``"fast"``), both
-with the default length (1.2 RT60 + direct path) and every image within it, ``rt_calibrated``
-rooms of the RT60; T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.rt60``) as the
+with the default length (1.2 RT60 + direct path) and every image within it, rooms with
+``ShoeBox(rt60_s=...)`` (Sabine absorption); T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.rt60``) as the
 ratio hybrid / full, and the early taps' max difference relative to the peak.
 
 Memory: peak traced memory (``tracemalloc``; numpy reports its buffers to it) of one RIR at
