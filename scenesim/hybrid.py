@@ -38,7 +38,7 @@ from scipy import signal
 _N_MU = 40  # Gauss-Legendre nodes in cos(polar angle) over [0, 1]
 _N_PHI = 40  # Gauss-Legendre nodes in azimuth over [0, pi/2]
 _N_TIME = 96  # envelope evaluated on this many times and interpolated in log energy
-_KAPPA_MAX = 1e6  # per metre: stands for an anechoic wall (b = 0), whose images carry nothing
+_B_MIN = 0.1  # wall reflections below this (alpha > 0.99) enter the envelope as 0.1, see below
 
 
 @functools.lru_cache(maxsize=1)
@@ -80,10 +80,15 @@ def expected_energy(dims_m, reflection, times_s, *, fs, c, pattern=None, max_ord
     ``(axis (3,), coefficients (n_bands, K))``; ``max_order`` limits the L1 order as the ISM.
     """
     dims = np.asarray(dims_m, dtype=float)
-    b = np.abs(np.atleast_2d(reflection))
-    with np.errstate(divide="ignore"):
-        logb = np.log(b)  # -inf for an anechoic wall
-    kappa = np.minimum(-(logb[:, 0::2] + logb[:, 1::2]) / dims, _KAPPA_MAX)  # (n_bands, 3) per m
+    # The continuum breaks down for (nearly) anechoic walls: with b = 0 it keeps only the
+    # measure-zero plane of directions that never meet that axis, while the lattice keeps a
+    # whole 2-D sheet of images.  Clamped at b = 0.1, the level-matched tail of a room with
+    # one wall at alpha = 1 keeps T30 within 3 % and EDT within 9 % of the full ISM (measured:
+    # alpha 1 on the x = 0 or the floor wall, 0.1 elsewhere); an all-anechoic room gets no tail because
+    # its early part holds no reflected energy to match (level_correction returns 0).
+    b = np.maximum(np.abs(np.atleast_2d(reflection)), _B_MIN)
+    logb = np.log(b)
+    kappa = -(logb[:, 0::2] + logb[:, 1::2]) / dims  # (n_bands, 3) per metre
     u, w = _octant_directions()
     d2 = _mirror_mean_d2(u, pattern, b.shape[0])  # (n_bands, n_dir)
     r = c * np.asarray(times_s, dtype=float)  # (n_t,)
@@ -137,7 +142,7 @@ def level_correction(early: np.ndarray, envelope2: np.ndarray, lo: int, hi: int)
     n = hi - lo
     expected = float(np.mean(envelope2[lo:hi])) * (1.0 - 2.0 / n)
     measured = float(np.mean(e**2))
-    return measured / expected if expected > 0 and measured > 0 else 1.0
+    return measured / expected if expected > 0 else 1.0
 
 
 def diffuse_tail(

@@ -324,6 +324,33 @@ def test_hybrid_with_talker_directivity_runs_and_keeps_early():
     np.testing.assert_allclose(hyb[:, :n], full[:, :n], rtol=0, atol=1e-5 * np.abs(full).max())
 
 
+@pytest.mark.parametrize("wall", [0, 4])
+def test_hybrid_with_an_anechoic_wall(wall):
+    """A wall with alpha = 1 (its continuum decay is degenerate, clamped at b = 0.1).  Oracle:
+    the full ISM's T30 (20 Hz high-passed); tolerance 5 % (measured 0.991 and 1.029)."""
+    alpha = [0.1] * 6
+    alpha[wall] = 1.0
+    room = ShoeBox((6.0, 5.0, 3.0), tuple(alpha))
+    src, mics = (1.8, 1.75, 1.5), np.array([[3.7107, 2.75, 1.2], [3.6893, 2.75, 1.2]])
+    kw = {"fs": 16000, "length_s": 1.2}
+    full = image_source_rir(room, src, mics, method="fast", **kw)
+    hyb = image_source_rir(room, src, mics, method="hybrid", **kw)
+    sos = signal.butter(2, 20.0, btype="highpass", fs=16000, output="sos")
+    ratio = measure_rt60(signal.sosfilt(sos, hyb[0]), 16000) / measure_rt60(signal.sosfilt(sos, full[0]), 16000)
+    assert abs(ratio - 1) < 0.05
+
+
+def test_hybrid_of_an_anechoic_room_has_no_tail():
+    """Every wall alpha = 1: the early part holds no reflections, so the tail is 0 and the
+    hybrid RIR is the direct path (oracle: full ISM, 1e-6 of the peak)."""
+    room = ShoeBox((5.0, 4.0, 3.0), 1.0)
+    kw = {"fs": 16000, "length_s": 0.3}
+    mics = [(3, 2, 1.5), (3.02, 2, 1.5)]
+    full = image_source_rir(room, (1, 1, 1), mics, method="fast", **kw)
+    hyb = image_source_rir(room, (1, 1, 1), mics, method="hybrid", **kw)
+    np.testing.assert_allclose(hyb, full, rtol=0, atol=1e-6 * np.abs(full).max())
+
+
 def test_mixing_time_only_with_hybrid():
     room = ShoeBox((4.0, 3.0, 2.5), 0.3)
     with pytest.raises(ParameterError, match="mixing_time_s"):
