@@ -229,7 +229,8 @@ def test_hybrid_early_part_identical(full_and_hybrid):
 
 def test_hybrid_t30_edt_within_5_percent(full_and_hybrid):
     """Oracle: the full ISM's T30 and EDT (20 Hz high-passed, scenesim.rt60) at RT60 1.0 s, both
-    mics.  Tolerance 5 % (the brief's); measured -2.5 % (T30) and -0.5 % (EDT) for seed 0."""
+    mics.  Tolerance 5 % (the brief's); measured -3.7 % (T30) and -1.9 % (EDT) on mic 0 for seed 0
+    (over seeds 0-7: T30 -4.2..-2.7 %, EDT -3.7..+0.8 %)."""
     full, hyb, fs = full_and_hybrid
     sos = signal.butter(2, 20.0, btype="highpass", fs=fs, output="sos")
     for m in range(2):
@@ -242,7 +243,7 @@ def test_hybrid_t30_edt_within_5_percent(full_and_hybrid):
 def test_hybrid_tail_keeps_diffuse_coherence(full_and_hybrid):
     """MSC at 500 Hz of the 2.14 cm pair after 100 ms.  Oracles: the diffuse-field law
     sinc^2(2 f d / c) = 0.987 and the full ISM (0.972).  Tolerance 0.03 absolute for both
-    (Welch, 512-sample segments over a decaying tail; measured 0.984..0.995 over seeds 0-2).
+    (Welch, 512-sample segments over a decaying tail; measured 0.969..0.991 over seeds 0-2).
     Independent tails per mic give 0.03-0.14 (the issue's prototype)."""
     full, hyb, fs = full_and_hybrid
     k = slice(int(0.1 * fs), None)
