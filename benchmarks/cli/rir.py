@@ -294,12 +294,14 @@ def _compare_hybrid(args, room, mics, max_order, directivity, h) -> dict:
     """Hybrid vs the full ISM: early taps, T30 and EDT (20 Hz high-passed) of mic 0."""
     from scipy import signal
 
-    from scenesim.ism import DEFAULT_MIXING_TIME_S, image_source_rir
+    from scenesim.ism import DEFAULT_MIXING_TIME_S
+    from scenesim.render import room_rir
     from scenesim.rt60 import measure_rt60
 
-    full = image_source_rir(
+    # The same renderer and high-pass as the hybrid RIR, so only the tail differs.
+    full = room_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-        method="fast", directivity=directivity,
+        method="fast", directivity=directivity, highpass_hz=args.highpass if args.highpass else None,
     )
     n_mix = round((args.mixing_time or DEFAULT_MIXING_TIME_S) * args.fs)
     sos = signal.butter(2, 20.0, btype="highpass", fs=args.fs, output="sos")
