@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("reverb", 36, 5), ("angles", 24, 5),
+    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("reverb", 80, 5), ("distance", 36, 5), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
 def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancers):
@@ -89,7 +89,19 @@ def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancer
     assert sweep.name == name and sweep.description
     assert len(sweep.conditions()) == n_conditions
     assert len(sweep.enhancers) == n_enhancers
-    assert set(PRESETS) == {"thesis", "phone", "mismatch", "reverb", "angles", "smoke"}
+    assert set(PRESETS) == {"thesis", "phone", "mismatch", "reverb", "distance", "angles", "smoke"}
+
+
+def test_reverb_draws_talker_and_noise_per_seed_the_same_at_every_rt60():
+    conds = load_sweep("reverb").conditions()
+    by_seed = {}
+    for c in conds:
+        assert 30 <= c.speech_az_deg <= 150 and 0.5 <= c.distance_m <= 1.2
+        assert c.noise_field == "diffuse" or 100 <= c.noise_az_deg <= 260
+        by_seed.setdefault(c.seed, set()).add((c.speech_az_deg, c.distance_m))
+    assert all(len(v) == 1 for v in by_seed.values())  # one placement per seed, every RT60
+    assert len({next(iter(v)) for v in by_seed.values()}) == 5  # and a different one per seed
+    assert {c.reference for c in conds} == {"early50"}
 
 
 def test_thesis_is_the_thesis_setup_with_babble_0db_first():
