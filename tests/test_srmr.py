@@ -14,7 +14,7 @@ Oracle 2 (torchmetrics' implementation), only when torch and torchmetrics are in
 import numpy as np
 import pytest
 
-from benchmarks.srmr import gammatone_sos, modulation_energy, srmr
+from benchmarks.srmr import _frame_energies, gammatone_sos, modulation_energy, srmr
 from scenesim.errors import ParameterError
 
 FS = 16000
@@ -73,3 +73,14 @@ def test_matches_torchmetrics_when_installed():
     x = _signals()["am4_rt60_0.8"]
     ref = float(tm.speech_reverberation_modulation_energy_ratio(torch.from_numpy(x), FS, fast=False))
     assert srmr(x, FS) == pytest.approx(ref, rel=1e-4)
+
+
+def test_block_frame_energies_equal_the_definition():
+    # Oracle: E[c, f] = sum_k w2[k] p[c, f hop + k] by a direct loop (tolerance 1e-12 relative).
+    rng = np.random.default_rng(1)
+    p = rng.random((3, 100))
+    w2 = rng.random(16)
+    for hop in (4, 5):  # window a whole number of hops (block path) and not (strided path)
+        n_frames = 1 + (100 - 16) // hop
+        want = np.array([[np.dot(w2, row[f * hop : f * hop + 16]) for f in range(n_frames)] for row in p])
+        np.testing.assert_allclose(_frame_energies(p, w2, hop, n_frames), want, rtol=1e-12)
