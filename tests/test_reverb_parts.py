@@ -96,3 +96,18 @@ def test_rir_acoustics_closed_form():
 def test_critical_distance_sabine():
     # r_c = 0.057 sqrt(V / T): 5 x 4 x 2.8 m = 56 m^3 at 0.5 s -> 0.603 m.
     assert critical_distance_m(56.0, 0.5) == pytest.approx(0.057 * np.sqrt(112.0), rel=1e-12)
+
+
+def test_early_window_moves_the_cut():
+    # Closed form: cut = ceil((r0 / c + window) * fs); a shorter window moves energy from the
+    # early to the late part, the direct part and the sum stay (tolerance: rounding).
+    scene = _room_scene()
+    s = _speech()
+    images = render_images(scene, s)
+    p20, p50 = speech_parts(images, s, early_window_s=0.02), speech_parts(images, s)
+    r0 = float(np.linalg.norm(scene.pair.positions_m[0] - scene.speech.position(scene.pair)))
+    assert p20.cut_sample == int(np.ceil((r0 / scene.speed_of_sound_mps + 0.02) * FS))
+    assert p50.cut_sample - p20.cut_sample in (480, 481)
+    np.testing.assert_array_equal(p20.direct, p50.direct)
+    assert np.sum(p20.early**2) < np.sum(p50.early**2) and np.sum(p20.late**2) > np.sum(p50.late**2)
+    np.testing.assert_allclose(p20.early + p20.late, p50.early + p50.late, atol=1e-12 * np.max(np.abs(s)))

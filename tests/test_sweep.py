@@ -221,3 +221,19 @@ def test_sweep_file_on_disk_uses_its_stem_as_default_name(tmp_path):
     path.write_text(MINIMAL.replace('name = "mini"\n', ""))
     sweep = load_sweep(path)
     assert sweep.name == "my_sweep" and sweep.text == path.read_text()
+
+
+def test_early_window_default_keeps_ids_and_other_values_change_them():
+    base = [c.id for c in parse_sweep(MINIMAL).conditions()]
+    same = parse_sweep(MINIMAL + "early_window_ms = 50\n").conditions()
+    other = parse_sweep(MINIMAL + "early_window_ms = 30\n").conditions()
+    assert [c.id for c in same] == base
+    assert all(c.early_window_ms == 30.0 for c in other) and not set(base) & {c.id for c in other}
+
+
+def test_talker_range_outside_the_room_is_a_config_error():
+    from benchmarks.sweep import preset_text
+
+    text = preset_text("reverb").replace("distance_range_m = [0.5, 1.2]", "distance_range_m = [0.5, 3.5]")
+    with pytest.raises(ConfigError, match="distance_m.*outside room"):
+        parse_sweep(text)
