@@ -104,7 +104,7 @@ def target_text(rows: Sequence[dict]) -> str:
             words.append(f"direct path + first {lab[5:]} ms")
         else:
             words.append(lab)
-    return "target = " + " / ".join(words) + " (free-field rows: direct path)" * ("direct" in labels and len(labels) > 1)
+    return "target = " + " / ".join(words)
 
 
 def rt60_summary(rows: Sequence[dict]) -> list[dict[str, Any]]:

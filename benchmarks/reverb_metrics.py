@@ -64,8 +64,12 @@ ACOUSTICS_COLUMNS: dict[str, str] = {
 
 
 def target_label(reference: str, early_window_s: float, reverberant: bool) -> str:
-    """``"direct"`` or ``"early50"`` (direct + first 50 ms): what the intrusive metrics compare with."""
-    if reference == "direct" or not reverberant:
+    """``"direct"`` or ``"early50"`` (direct + first 50 ms): what the intrusive metrics compare with.
+
+    By definition, so one sweep has one label: in free field (``reverberant`` False) the
+    direct + early target is the direct path, all there is.
+    """
+    if reference == "direct":
         return "direct"
     return f"early{1000.0 * early_window_s:g}"
 

@@ -96,7 +96,7 @@ def test_reverb_draws_talker_and_noise_per_seed_the_same_at_every_rt60():
     conds = load_sweep("reverb").conditions()
     by_seed = {}
     for c in conds:
-        assert 30 <= c.speech_az_deg <= 150 and 0.5 <= c.distance_m <= 1.2
+        assert 20 <= c.speech_az_deg <= 70 and 0.5 <= c.distance_m <= 1.2
         assert c.noise_field == "diffuse" or 100 <= c.noise_az_deg <= 260
         by_seed.setdefault(c.seed, set()).add((c.speech_az_deg, c.distance_m))
     assert all(len(v) == 1 for v in by_seed.values())  # one placement per seed, every RT60
