@@ -30,7 +30,12 @@ from typing import Any
 import numpy as np
 
 from benchmarks import metrics as M
-from benchmarks.reverb_metrics import REVERB_INPUT_COLUMNS, REVERB_OUTPUT_COLUMNS, output_columns
+from benchmarks.reverb_metrics import (
+    REVERB_INPUT_COLUMNS,
+    REVERB_OUTPUT_COLUMNS,
+    input_columns,
+    output_columns,
+)
 from scenesim.errors import ParameterError
 
 #: Columns produced by :func:`input_metrics` (SQL types for the results store).
@@ -47,7 +52,7 @@ INPUT_COLUMNS: dict[str, str] = {
     "inband_lo_hz": "REAL",
     "inband_hi_hz": "REAL",
     "self_snr_in_db": "REAL",
-    **REVERB_INPUT_COLUMNS,  # filled by the runner from the speech parts (benchmarks.reverb_metrics)
+    **REVERB_INPUT_COLUMNS,  # from the speech parts (benchmarks.reverb_metrics), None without them
     "input_error": "TEXT",
 }
 
@@ -165,7 +170,7 @@ def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: lis
     return out
 
 
-def input_metrics(rendered) -> dict[str, Any]:
+def input_metrics(rendered, *, speech_parts=None, reference: str = "direct") -> dict[str, Any]:
     """Metrics of the unprocessed mixture at the reference mic (channel 0); once per mixture.
 
     Parameters
@@ -180,6 +185,9 @@ def input_metrics(rendered) -> dict[str, Any]:
         ``pesq_nb_in, pesq_wb_in, stoi_in, estoi_in, segsnr_in_db, si_sdr_in_db`` (mixture
         channel 0 vs reference), ``snr_in_db_measured`` (power of speech image channel 0
         over noise image channel 0, whole signal) and ``input_error`` (text or None).
+        With ``speech_parts`` (:func:`scenesim.reverb_parts.speech_parts`) and the scene's
+        ``reference``: the reverberation columns ``sinr_in_db, drr_in_db, c50_in_db, srmr_in,
+        metric_target, early_window_ms`` (:mod:`benchmarks.reverb_metrics`), else None.
     """
     errors: list[str] = []
     fs = int(rendered.fs)
@@ -197,6 +205,9 @@ def input_metrics(rendered) -> dict[str, Any]:
         row["self_snr_in_db"] = _try(errors, "self_snr_in", M.snr_db, s0, np.asarray(self_noise)[0])
     else:
         row["self_snr_in_db"] = None
+    row.update(dict.fromkeys(REVERB_INPUT_COLUMNS))
+    if speech_parts is not None:
+        row.update(_try(errors, "reverb_in", input_columns, rendered, speech_parts, reference=reference) or {})
     row["input_error"] = "; ".join(errors) or None
     return row
 

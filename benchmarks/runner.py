@@ -282,7 +282,6 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
     enhancer gives rows with ``status='error'`` and the reason in ``error``.
     """
     from benchmarks.evaluate import evaluate_enhancer, input_metrics
-    from benchmarks.reverb_metrics import input_columns as reverb_input_columns
 
     cond = task.condition
     worker = f"{socket.gethostname()}:{os.getpid()}"
@@ -304,8 +303,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
                 rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
             base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
             base["render_s"] = time.perf_counter() - t0
-            inputs = input_metrics(rendered)
-            inputs.update(reverb_input_columns(rendered, parts, reference=cond.reference))
+            inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
         except Exception as exc:
             text = _exc_text(exc)
             return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]

@@ -7,7 +7,7 @@ import pytest
 
 from benchmarks import metrics as M
 from benchmarks.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
-from benchmarks.reverb_metrics import input_columns, theory_drr_c50_db
+from benchmarks.reverb_metrics import theory_drr_c50_db
 from enhancers.registry import make, with_geometry
 from scenesim.geometry import MicPair
 from scenesim.reverb_parts import speech_parts
@@ -33,8 +33,7 @@ def case():
     images = render_images(scene, s, [None])
     parts = speech_parts(images, s)
     rendered = images.mix()
-    inputs = input_metrics(rendered)
-    inputs.update(input_columns(rendered, parts, reference="early50"))
+    inputs = input_metrics(rendered, speech_parts=parts, reference="early50")
     return rendered, parts, inputs
 
 

@@ -22,7 +22,6 @@ import numpy as np
 import enhancers
 from benchmarks import metrics as M
 from benchmarks.evaluate import evaluate_enhancer, input_metrics
-from benchmarks.reverb_metrics import input_columns
 from benchmarks.srmr import srmr
 from scenesim.geometry import MicPair
 from scenesim.reverb_parts import speech_parts
@@ -69,7 +68,7 @@ def main(argv=None) -> int:
     parts = speech_parts(images, s)
     rendered = images.mix()
     inputs = input_metrics(rendered)
-    with_reverb = {**inputs, **input_columns(rendered, parts, reference="early50")}
+    with_reverb = input_metrics(rendered, speech_parts=parts, reference="early50")
     print(f"# reverberation metrics cost on {args.seconds:g} s at {FS} Hz, median of {args.runs} runs")
     print(f"{'what':44s} {'median s':>9s} {'peer s':>9s} {'ratio':>7s}")
 
@@ -81,7 +80,7 @@ def main(argv=None) -> int:
     mix0 = rendered.mixture[0]
     line("speech_parts (per geometry) / render_images", lambda: speech_parts(images, s), lambda: _case(args.seconds))
     line("srmr (one signal) / pesq_scores nb+wb", lambda: srmr(mix0, FS), lambda: M.pesq_scores(rendered.reference[0], mix0, fs=FS))
-    line("input metrics + reverb columns / without", lambda: {**input_metrics(rendered), **input_columns(rendered, parts, reference="early50")}, lambda: input_metrics(rendered))
+    line("input metrics + reverb columns / without", lambda: input_metrics(rendered, speech_parts=parts, reference="early50"), lambda: input_metrics(rendered))
     for name in ("eb-ss", "passthrough"):
         line(
             f"evaluate_enhancer {name}: with parts / without",
