@@ -68,8 +68,9 @@ def _pm(rec: dict, f: str, digits: int = 2) -> str:
 
 
 def phone_rows(ok: Sequence[dict]) -> list[dict]:
-    """Rows whose microphones were drawn per seed (a sensor tolerance is set)."""
-    return [r for r in ok if any(num(_cond(r).get(k)) for k in _TOLERANCE_KEYS)]
+    """Rows whose microphones were drawn per seed (a sensor tolerance is set); reverberation
+    studies (rows with a ``metric_target``) have their own section (benchmarks.report_reverb)."""
+    return [r for r in ok if any(num(_cond(r).get(k)) for k in _TOLERANCE_KEYS) and not r.get("metric_target")]
 
 
 def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) -> list[dict[str, Any]]:
