@@ -30,6 +30,12 @@ from typing import Any
 import numpy as np
 
 from benchmarks import metrics as M
+from benchmarks.reverb_metrics import (
+    REVERB_INPUT_COLUMNS,
+    REVERB_OUTPUT_COLUMNS,
+    input_columns,
+    output_columns,
+)
 from scenesim.errors import ParameterError
 
 #: Columns produced by :func:`input_metrics` (SQL types for the results store).
@@ -46,6 +52,7 @@ INPUT_COLUMNS: dict[str, str] = {
     "inband_lo_hz": "REAL",
     "inband_hi_hz": "REAL",
     "self_snr_in_db": "REAL",
+    **REVERB_INPUT_COLUMNS,  # from the speech parts (benchmarks.reverb_metrics), None without them
     "input_error": "TEXT",
 }
 
@@ -86,6 +93,7 @@ ROW_COLUMNS: dict[str, str] = {
     "process_s": "REAL",
     "metrics_s": "REAL",
     "trace_json": "TEXT",
+    **REVERB_OUTPUT_COLUMNS,
 }
 
 #: At most this many points of each beta trajectory go into ``trace_json``.
@@ -162,7 +170,7 @@ def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: lis
     return out
 
 
-def input_metrics(rendered) -> dict[str, Any]:
+def input_metrics(rendered, *, speech_parts=None, reference: str = "direct") -> dict[str, Any]:
     """Metrics of the unprocessed mixture at the reference mic (channel 0); once per mixture.
 
     Parameters
@@ -177,6 +185,9 @@ def input_metrics(rendered) -> dict[str, Any]:
         ``pesq_nb_in, pesq_wb_in, stoi_in, estoi_in, segsnr_in_db, si_sdr_in_db`` (mixture
         channel 0 vs reference), ``snr_in_db_measured`` (power of speech image channel 0
         over noise image channel 0, whole signal) and ``input_error`` (text or None).
+        With ``speech_parts`` (:func:`scenesim.reverb_parts.speech_parts`) and the scene's
+        ``reference``: the reverberation columns ``sinr_in_db, drr_in_db, c50_in_db, srmr_in,
+        metric_target, early_window_ms`` (:mod:`benchmarks.reverb_metrics`), else None.
     """
     errors: list[str] = []
     fs = int(rendered.fs)
@@ -194,6 +205,9 @@ def input_metrics(rendered) -> dict[str, Any]:
         row["self_snr_in_db"] = _try(errors, "self_snr_in", M.snr_db, s0, np.asarray(self_noise)[0])
     else:
         row["self_snr_in_db"] = None
+    row.update(dict.fromkeys(REVERB_INPUT_COLUMNS))
+    if speech_parts is not None:
+        row.update(_try(errors, "reverb_in", input_columns, rendered, speech_parts, reference=reference) or {})
     row["input_error"] = "; ".join(errors) or None
     return row
 
@@ -301,6 +315,7 @@ def evaluate_enhancer(
     *,
     input_metrics: Mapping[str, Any] | None = None,
     latency_tolerance_samples: int | None = None,
+    speech_parts=None,
 ) -> dict[str, Any]:
     """Run ``enhancer`` on one rendered scene and measure it; returns one results row (dict).
 
@@ -320,6 +335,9 @@ def evaluate_enhancer(
         reference mic plus the 2-mic white-noise array gain (3 dB): the highest output SNR a
         linear two-mic system can reach; a higher ``snr_out_db`` comes from time-varying gains
         (or is an error) and the report flags it.
+    speech_parts : scenesim.reverb_parts.SpeechParts, optional
+        The direct / early / late speech images: adds the SINR / DRR / C50 / SRMR output
+        columns (:mod:`benchmarks.reverb_metrics`; the input ones come in ``input_metrics``).
     latency_tolerance_samples : int, optional
         Allowed difference between the declared latency and the cross-correlation lag of
         the speech component of the output against the reference before ``latency_check``
@@ -381,6 +399,11 @@ def evaluate_enhancer(
         )
     except Exception as exc:  # a bug in measuring must not crash the sweep
         errors.append(f"evaluation: {_exc_text(exc)}")
+    if speech_parts is not None:
+        try:
+            row.update(output_columns(enhancer, result, rendered, speech_parts, channels=x.shape[0], latency=latency, srmr_in=row.get("srmr_in")))
+        except Exception as exc:
+            errors.append(f"reverb metrics: {_exc_text(exc)}")
     row["metrics_s"] = time.perf_counter() - t0
     row["error"] = "; ".join(errors) or None
     return row

@@ -28,9 +28,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures, report_sensors
+from benchmarks import figures, report_reverb, report_sensors
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
+from benchmarks.html_report import write_index
+from benchmarks.listening import ListenOptions
 from benchmarks.report_tables import (
     CONDITION_KEYS,
     METRIC_FIELDS,
@@ -452,7 +454,11 @@ def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[st
 
 
 def write_report(
-    rows: Iterable[Mapping[str, Any]], out_dir, *, meta: Mapping[str, Any] | None = None
+    rows: Iterable[Mapping[str, Any]],
+    out_dir,
+    *,
+    meta: Mapping[str, Any] | None = None,
+    listen: ListenOptions | None = None,
 ) -> list[Path]:
     """Write the report for ``rows`` under ``out_dir/report/``; returns the written paths.
 
@@ -466,6 +472,9 @@ def write_report(
         The sweep's output directory (the report goes to its ``report/`` subfolder).
     meta : mapping, optional
         Shown at the top of ``summary.md`` (preset, versions, date, ...).
+    listen : ListenOptions, optional
+        Conditions given audio players in ``index.html`` (:mod:`benchmarks.html_report`;
+        default: a spread of noises and input SNRs, re-rendered from ``out_dir``'s store).
     """
     report_dir = Path(out_dir) / REPORT_DIRNAME
     report_dir.mkdir(parents=True, exist_ok=True)
@@ -526,6 +535,9 @@ def write_report(
     # A sensor-mismatch sweep has its own section; averaging its rows over the mismatch
     # values into RT60/azimuth sweeps would describe no microphone pair at all.
     generic = [] if report_sensors.mismatch_rows(ok) else ok
+    # Reverberation studies (rows with a metric target) draw placements per seed and have
+    # their own section (report_reverb), which names the target.
+    generic = [r for r in generic if not r.get("metric_target")]
     rt60, rt60_notes = _sweep(generic, "rt60_s", figures.RT60_FIXED, figures.RT60_PREFER, 1)
     azim, azim_notes = _sweep(
         generic,
@@ -567,12 +579,14 @@ def write_report(
     phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
     mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
     flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
-    paths += [p for p in (*phone_paths, *mismatch_paths, *flag_paths) if p.suffix != ".png"]
-    fig_paths += [p for p in (*phone_paths, *mismatch_paths) if p.suffix == ".png"]
+    reverb_lines, reverb_paths = report_reverb.reverb_sections(ok, report_dir)
+    paths += [p for p in (*phone_paths, *mismatch_paths, *flag_paths, *reverb_paths) if p.suffix != ".png"]
+    fig_paths += [p for p in (*phone_paths, *mismatch_paths, *reverb_paths) if p.suffix == ".png"]
 
     lines = _meta_lines(meta, all_rows)
     lines += phone_lines
     lines += mismatch_lines
+    lines += reverb_lines
     if comparison or not ok:
         lines += _thesis_section(comparison)
         lines += _averages_section(avg)
@@ -592,4 +606,5 @@ def write_report(
         lines += [f"![{p.stem}]({p.name})\n" for p in fig_paths]
     summary = report_dir / "summary.md"
     summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return [summary, *paths, *fig_paths]
+    page = write_index(report_dir, summary.read_text(encoding="utf-8"), all_rows, store_dir=Path(out_dir), listen=listen)
+    return [summary, *paths, *fig_paths, *page]

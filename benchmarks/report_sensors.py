@@ -68,8 +68,9 @@ def _pm(rec: dict, f: str, digits: int = 2) -> str:
 
 
 def phone_rows(ok: Sequence[dict]) -> list[dict]:
-    """Rows whose microphones were drawn per seed (a sensor tolerance is set)."""
-    return [r for r in ok if any(num(_cond(r).get(k)) for k in _TOLERANCE_KEYS)]
+    """Rows whose microphones were drawn per seed (a sensor tolerance is set); reverberation
+    studies (rows with a ``metric_target``) have their own section (benchmarks.report_reverb)."""
+    return [r for r in ok if any(num(_cond(r).get(k)) for k in _TOLERANCE_KEYS) and not r.get("metric_target")]
 
 
 def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) -> list[dict[str, Any]]:
@@ -183,7 +184,46 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
         markdown_table(header, body),
         "",
     ]
+    ranking = rank_systems(summary)
+    if len(ranking) >= 4:
+        paths.append(write_csv(report_dir / "ranking.csv", ranking,
+                               ["rank", "enhancer", "snr_i_db", "pesq_nb_raw_out", "stoi_out", "noises"]))  # fmt: skip
+        lines += [
+            "**Ranking** by SNR-I: the mean over the noises of each system's per-noise mean "
+            "(the table above); PESQ and STOI likewise. Only systems measured on every noise.",
+            "",
+            markdown_table(
+                ["rank", "system", "SNR-I (dB)", "PESQ out raw", "STOI out"],
+                [[str(r["rank"]), f"`{r['enhancer']}`", fmt(r["snr_i_db"]), fmt(r["pesq_nb_raw_out"], 3),
+                  fmt(r["stoi_out"], 3)] for r in ranking],
+            ),
+            "",
+        ]  # fmt: skip
     return lines, paths
+
+
+def rank_systems(summary: Sequence[dict]) -> list[dict[str, Any]]:
+    """Systems ranked by the mean over noises of their per-noise mean SNR-I (best first).
+
+    >>> rank_systems([{"enhancer": "a", "noise": "x", "snr_i_db": 1.0},
+    ...               {"enhancer": "b", "noise": "x", "snr_i_db": 3.0}])[0]["enhancer"]
+    'b'
+    """
+    noises = {r["noise"] for r in summary}
+    out = []
+    for name in {r["enhancer"] for r in summary}:
+        recs = [r for r in summary if r["enhancer"] == name and r.get("snr_i_db") is not None]
+        if {r["noise"] for r in recs} != noises:
+            continue
+        rec: dict[str, Any] = {"enhancer": name, "noises": " ".join(sorted(noises))}
+        for f in ("snr_i_db", "pesq_nb_raw_out", "stoi_out"):
+            vals = [r[f] for r in recs if r.get(f) is not None]
+            rec[f] = sum(vals) / len(vals) if len(vals) == len(recs) else None
+        out.append(rec)
+    out.sort(key=lambda r: -r["snr_i_db"])
+    for k, rec in enumerate(out, start=1):
+        rec["rank"] = k
+    return out
 
 
 def _fmt_corners(value) -> str:

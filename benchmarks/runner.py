@@ -16,6 +16,7 @@ rerun computes only what is missing.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import os
@@ -220,10 +221,32 @@ def render_group(cond: Condition, data_dir: str | None):
     noise = ds.noise(cond.noise, cond.duration_s, seed=cond.seed, n_channels=_noise_channels(cond.noise_field))
     images = render_images(build_scene(cond), _mono(speech.signal), [_squeeze(noise.signal)])
     value = (images, str(speech.source), str(noise.source))
+    _PARTS[key] = _speech_parts(cond, images, _mono(speech.signal))
     _IMAGES[key] = value
     while len(_IMAGES) > _IMAGES_MAX:
-        _IMAGES.popitem(last=False)
+        _PARTS.pop(_IMAGES.popitem(last=False)[0], None)
     return value
+
+
+_PARTS: dict[tuple, Any] = {}  # (speech parts, acoustics columns) beside each cached group
+
+
+def _speech_parts(cond: Condition, images, speech):
+    """Speech parts and room acoustics of a group; None where reverberation is not studied
+    (free field with a direct-path target: the thesis sweeps pay nothing for it)."""
+    if cond.rt60_s == 0.0 and cond.reference == "direct":
+        return None, {}
+    from benchmarks.reverb_metrics import acoustics_columns
+    from scenesim.reverb_parts import speech_parts
+
+    parts = speech_parts(images, speech, early_window_s=cond.early_window_ms / 1000.0)
+    return parts, acoustics_columns(images, parts, rt60_target_s=cond.rt60_s)
+
+
+def group_parts(cond: Condition, data_dir: str | None):
+    """``(SpeechParts or None, acoustics columns)`` of a condition's group (after :func:`render_group`)."""
+    render_group(cond, data_dir)
+    return _PARTS[(data_dir, cond.group_id)]
 
 
 def _mono(x):
@@ -273,10 +296,14 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
         try:
             t0 = time.perf_counter()
             images, speech_source, noise_source = render_group(cond, task.data_dir)
+            parts, acoustics = group_parts(cond, task.data_dir)
             rendered = images.mix(cond.snr_db)
-            base.update(speech_source=speech_source, noise_source=noise_source)
+            if parts is not None and parts.reverberant and cond.reference != "direct":
+                # Target = direct + early (the sweep's early window) for every intrusive metric.
+                rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
+            base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
             base["render_s"] = time.perf_counter() - t0
-            inputs = input_metrics(rendered)
+            inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
         except Exception as exc:
             text = _exc_text(exc)
             return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
@@ -286,7 +313,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
                 enhancer = build_enhancer(spec, cond)
                 row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
                 row["enhancer_version"] = str(enhancer.version)
-                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs))
+                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs, speech_parts=parts))
             except Exception as exc:
                 row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
             row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
@@ -562,8 +589,11 @@ def _progress(total: int, name: str, *, enabled: bool):
     return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
 
 
-def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None) -> list[Path]:
-    """Write ``out_dir/report`` (Markdown, CSV, PNG) from every row of ``out_dir/results.sqlite``."""
+def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
+    """Write ``out_dir/report`` (Markdown, CSV, PNG, index.html) from every row of ``out_dir/results.sqlite``.
+
+    ``listen``: a :class:`benchmarks.listening.ListenOptions` (which conditions get audio).
+    """
     from benchmarks.report import write_report
 
     own = store is None
@@ -582,7 +612,7 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None)
         other = sum(r.get("sweep_version") not in (None, version) for r in rows)
         rows = [r for r in rows if r.get("sweep_version") in (None, version)]
         meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
-    return list(write_report(rows, Path(out_dir), meta=meta))
+    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:

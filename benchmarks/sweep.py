@@ -62,7 +62,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-PRESETS = ("thesis", "phone", "mismatch", "reverb", "angles", "smoke")
+PRESETS = ("thesis", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke")
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1
@@ -239,6 +239,19 @@ PARAMETERS: dict[str, _Param] = {
         None,
         "draw the point-noise azimuth per seed uniformly in [lo, hi] (overrides noise_az_deg)",
     ),
+    "speech_az_range_deg": _Param(
+        _or_none(_pair_of(-360.0, 720.0, "[lo, hi] in deg with lo < hi"), "none"),
+        None,
+        "draw the talker azimuth per seed uniformly in [lo, hi] (overrides speech_az_deg)",
+    ),
+    "distance_range_m": _Param(
+        _or_none(_pair_of(0.01, 100.0, "[lo, hi] in m with lo < hi"), "none"),
+        None,
+        "draw the talker distance per seed uniformly in [lo, hi] (overrides distance_m)",
+    ),
+    "early_window_ms": _Param(
+        _in_range(0.0, 500.0, "ms"), 50.0, "early window after the direct path kept in the 'early50' target"
+    ),
     "rt60_method": _Param(_choice(RT60_METHODS), "calibrated", "how rt60_s sets absorption"),
     "snr_mode": _Param(_choice(SNR_MODES), "total", "how the input SNR is defined"),
     "reference": _Param(_choice(REFERENCES), "direct", "reference speech for the metrics"),
@@ -311,6 +324,9 @@ class Condition:
     wind_speed_mps: float = 5.0
     snr_band_hz: tuple[float, float] | None = None
     noise_az_range_deg: tuple[float, float] | None = None
+    speech_az_range_deg: tuple[float, float] | None = None
+    distance_range_m: tuple[float, float] | None = None
+    early_window_ms: float = 50.0
 
     def canonical(self) -> dict[str, Any]:
         """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
@@ -346,7 +362,8 @@ class Condition:
     def from_json(cls, text: str) -> Condition:
         values = json.loads(text)
         values.pop("v", None)
-        for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz", "noise_az_range_deg"):
+        for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz", "noise_az_range_deg",
+                    "speech_az_range_deg", "distance_range_m"):
             if values.get(key) is not None:
                 values[key] = tuple(values[key])
         return cls(**values)
@@ -381,10 +398,14 @@ _LATE_DEFAULTS: dict[str, Any] = {
     "wind_speed_mps": 5.0,
     "snr_band_hz": None,
     "noise_az_range_deg": None,
+    "speech_az_range_deg": None,
+    "distance_range_m": None,
+    "early_window_ms": 50.0,
 }
 """Condition keys added after the first release, with the value that leaves them out of the id."""
 
 _AZIMUTH_STREAM = 11  # rng stream of per-seed noise azimuth draws
+_TALKER_STREAM = 12  # rng stream of per-seed talker azimuth and distance draws
 
 
 def _short_hash(text: str) -> str:
@@ -447,9 +468,23 @@ class Sweep:
         return len(self.conditions())
 
 
+def _draw_talker(values: dict[str, Any]) -> None:
+    """Per-seed talker azimuth / distance from ``speech_az_range_deg`` / ``distance_range_m``.
+
+    One draw per seed (the same in every room and RT60 of the sweep, so RT60s compare the same
+    placements); the ranges stay in the condition, so its rows are no azimuth/distance sweep.
+    """
+    u = np.random.default_rng([values["seed"], _TALKER_STREAM]).uniform(size=2)
+    for key, range_key, k in (("speech_az_deg", "speech_az_range_deg", 0), ("distance_m", "distance_range_m", 1)):
+        lo_hi = values[range_key]
+        if lo_hi is not None:
+            values[key] = float(round(lo_hi[0] + u[k] * (lo_hi[1] - lo_hi[0]), 6))
+
+
 def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condition:
     room_name = values.pop("room")
     az_range = values.pop("noise_az_range_deg")
+    _draw_talker(values)
     field_ = values["noise_field"]
     if isinstance(field_, tuple):  # a table noise type -> field
         values["noise_field"] = field_ = dict(field_)[values["noise"]]
@@ -735,8 +770,8 @@ class _Parser:
                 continue
             pair = MicPair(room.pair_center_m, spacing_m=sweep.axes["spacing_m"][0], axis_azimuth_deg=room.axis_azimuth_deg)
             for dist_key, az_key in (("distance_m", "speech_az_deg"), ("noise_distance_m", "noise_az_deg")):
-                for dist in sweep.axes[dist_key]:
-                    for az in sweep.axes[az_key]:
+                for dist in _with_range(sweep.axes[dist_key], sweep.axes.get(_RANGE_KEYS.get(dist_key)), 2):
+                    for az in _with_range(sweep.axes[az_key], sweep.axes.get(_RANGE_KEYS.get(az_key)), 13):
                         pos = pair.source_position(az, dist)
                         if any(not (MIN_WALL_DISTANCE_M <= p <= d - MIN_WALL_DISTANCE_M) for p, d in zip(pos, room.dims_m)):
                             table = ("axes",) if dist_key in data.get("axes", {}) else ("fixed",)
@@ -746,6 +781,19 @@ class _Parser:
                                 f"a source at {dist:g} m, {az:g} deg from the pair lies outside room "
                                 f"{room.name!r} {list(room.dims_m)} m",
                             )
+
+
+#: Parameters drawn per seed from a range key (the range's values are checked against rooms too).
+_RANGE_KEYS = {"distance_m": "distance_range_m", "speech_az_deg": "speech_az_range_deg", "noise_az_deg": "noise_az_range_deg"}
+
+
+def _with_range(values, ranges, n: int) -> tuple:
+    """``values`` plus ``n`` points across each ``[lo, hi]`` of ``ranges`` (None entries skipped)."""
+    out = list(values)
+    for r in ranges or ():
+        if r is not None:
+            out.extend(np.linspace(r[0], r[1], n).tolist())
+    return tuple(out)
 
 
 def _axis_names() -> str:

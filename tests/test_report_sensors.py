@@ -92,3 +92,16 @@ def test_flags_hagerman_self_noise_and_ideal_outputs():
     assert flags["hagerman"] == [ok[0]]
     assert flags["above_self_noise"] == [ok[2]]
     assert flags["ideal_high"] == [ok[4]]
+
+
+def test_ranking_orders_systems_by_mean_snr_i_over_noises(tmp_path):
+    # Oracle: arithmetic -- system k has SNR-I 3k on babble and k on factory: mean 2k.
+    systems = ["passthrough", "ss", "mmse-lsa", "eb-ss"]
+    rows = [_phone_row(name, noise, snr, seed, (3 * k if noise == "babble" else k) + 0.1 * seed)
+            for k, name in enumerate(systems) for noise in ("babble", "factory") for snr in (0, 10)
+            for seed in range(3)]  # fmt: skip
+    write_report(rows, tmp_path)
+    text = (tmp_path / "report" / "summary.md").read_text()
+    ranking = text.split("**Ranking**")[1].split("\n\n")[1].splitlines()[2:]
+    assert [ln.split("|")[2].strip() for ln in ranking] == ["`eb-ss`", "`mmse-lsa`", "`ss`", "`passthrough`"]
+    assert ranking[0].split("|")[3].strip() == "6.10"  # 2 * 3 + mean seed offset 0.1

@@ -1,4 +1,4 @@
-"""``scenesim bench run | report | list``: run sweeps, write reports, list what is available."""
+"""``scenesim bench run | report | compare | list``: run sweeps, write reports, compare stores, list what is available."""
 
 from __future__ import annotations
 
@@ -40,9 +40,21 @@ def add_parser(subparsers) -> None:
     )
     run.set_defaults(func=_run)
 
-    rep = sub.add_parser("report", help="write tables (Markdown, CSV) and figures (PNG) from a store")
+    rep = sub.add_parser("report", help="write tables (Markdown, CSV), figures (PNG) and index.html (with audio) from a store")
     rep.add_argument("dir", type=Path, metavar="DIR", help="a directory holding results.sqlite")
+    rep.add_argument("--listen", nargs="+", default=(), metavar="CONDITION_ID", help="give these conditions audio players in index.html (default: a spread of noises and SNRs)")
+    rep.add_argument("--listen-count", type=_nonneg_int, default=None, metavar="N", help="how many conditions get audio when --listen is not given (default 6; 0: none)")
     rep.set_defaults(func=_report)
+
+    cmp_ = sub.add_parser(
+        "compare",
+        help="paired differences (B - A) between two stores of the same sweep, with 95%% CIs over seeds",
+    )
+    cmp_.add_argument("dir_a", type=Path, metavar="DIR_A", help="baseline store directory")
+    cmp_.add_argument("dir_b", type=Path, metavar="DIR_B", help="store compared with it")
+    cmp_.add_argument("--out", type=Path, default=None, metavar="DIR", help="where compare.csv/.md go (default: DIR_B/compare)")
+    cmp_.add_argument("--metrics", nargs="+", default=None, metavar="COLUMN", help="result columns to compare (default: snr_i_db pesq_nb_out pesq_wb_out stoi_out estoi_out si_sdr_out_db)")
+    cmp_.set_defaults(func=_compare)
 
     lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
     lst.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="data directory whose noises to list")
@@ -96,6 +108,9 @@ def _run(args) -> int:
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
         print(f"report:  {index}")
+        page = next((f for f in summary.report_files if f.name == "index.html"), None)
+        if page:
+            print(f"page:    {page}")
     if summary.report_error:
         print(
             f"scenesim: error: the report could not be written ({summary.report_error}); the results "
@@ -107,9 +122,21 @@ def _run(args) -> int:
 
 
 def _report(args) -> int:
+    from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
     from benchmarks.runner import write_store_report
 
-    files = write_store_report(args.dir)
+    count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
+    files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
+    for f in files:
+        print(f)
+    return 0
+
+
+def _compare(args) -> int:
+    from benchmarks.compare import DEFAULT_METRICS, compare_stores
+
+    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS))
+    print(text)
     for f in files:
         print(f)
     return 0

@@ -62,8 +62,22 @@ def add_parser(subparsers):
                    help="causal 2nd-order Butterworth high-pass of the RIR in Hz (default 20, as every "
                         "rendered scene; 0 = the raw image sum)")
     p.add_argument("--length", type=float, default=None, metavar="S", help="RIR length in seconds")
-    p.add_argument("--method", choices=("auto", "exact", "fast"), default="auto",
-                   help="renderer (default auto)")
+    p.add_argument("--method", choices=("auto", "exact", "fast", "hybrid"), default="auto",
+                   help="renderer (default auto); hybrid = images up to --mixing-time, then a "
+                        "stochastic tail with the ISM's decay and diffuse coherence")
+    p.add_argument("--mixing-time", type=float, default=None, metavar="S",
+                   help="hybrid only: end of the image-source part in seconds (default 0.08)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="hybrid only: seed of the tail (default: derived from the positions)")
+    p.add_argument("--directivity", choices=("omni", "cardioid-family", "talker"), default="omni",
+                   help="source directivity: cardioid-family (p + (1-p) cos, --directivity-p) or "
+                        "talker (front/back ratio rising with frequency, per octave)")
+    p.add_argument("--directivity-p", type=float, default=0.5, metavar="P",
+                   help="cardioid-family p: 1 omni, 0.5 cardioid, 0.25 hypercardioid, 0 figure-eight")
+    p.add_argument("--source-azimuth", type=float, default=0.0, metavar="DEG",
+                   help="directivity axis, degrees from +x towards +y (default 0)")
+    p.add_argument("--source-elevation", type=float, default=0.0, metavar="DEG",
+                   help="directivity axis elevation in degrees (default 0)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--format", choices=FORMATS, default="npy", help="output format (default npy)")
     p.add_argument("--compare", choices=("pyroomacoustics",), default=None,
@@ -100,9 +114,12 @@ def run(args) -> int:
     max_order = args.max_order
     if args.compare and max_order is None:
         max_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
+    directivity = _directivity(args)
+    hybrid_kw = {"mixing_time_s": args.mixing_time, "seed": args.seed} if args.method == "hybrid" else {}
     h = room_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
         method=args.method, highpass_hz=args.highpass if args.highpass else None,
+        directivity=directivity, **hybrid_kw,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -127,6 +144,13 @@ def run(args) -> int:
         "max_order": max_order,
         "n_taps": int(h.shape[1]),
         "method": args.method,
+        "mixing_time_s": args.mixing_time if args.method == "hybrid" else None,
+        "seed": args.seed if args.method == "hybrid" else None,
+        "directivity": None if directivity is None else {
+            "kind": args.directivity, "coefficients": directivity.coefficients,
+            "bands_hz": directivity.bands_hz, "azimuth_deg": directivity.azimuth_deg,
+            "elevation_deg": directivity.elevation_deg,
+        },
         "time_origin": "tap 0 = emission, no global delay",
     }
     meta.update(_band_meta(room))
@@ -140,8 +164,10 @@ def run(args) -> int:
     elif args.compare:
         from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
+        # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
+        method = "auto" if args.method == "hybrid" else args.method
         check = compare_with_pyroomacoustics(
-            room, args.source, mics, fs=args.fs, max_order=max_order, method=args.method
+            room, args.source, mics, fs=args.fs, max_order=max_order, method=method
         )
         numbers = check.to_dict()
         (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
@@ -157,6 +183,12 @@ def run(args) -> int:
             print("  inter-mic delay err n/a (needs two or more mics)")
         print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
               f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
+        if directivity is not None:
+            numbers["directivity"] = _compare_directivity(args, room, mics, max_order, directivity)
+            (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
+        if args.method == "hybrid":
+            numbers["hybrid"] = _compare_hybrid(args, room, mics, max_order, directivity, h)
+            (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -224,3 +256,61 @@ def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
     path = out / "crosscheck.json"
     path.write_text(json.dumps(numbers, indent=2))
     return [path]
+
+
+def _directivity(args):
+    from scenesim.directivity import Directivity
+
+    kw = {"azimuth_deg": args.source_azimuth, "elevation_deg": args.source_elevation}
+    if args.directivity == "cardioid-family":
+        return Directivity.cardioid_family(args.directivity_p, **kw)
+    if args.directivity == "talker":
+        return Directivity.talker(**kw)
+    return None
+
+
+def _compare_directivity(args, room, mics, max_order, directivity) -> list:
+    """pyroomacoustics shares the frequency-independent first-order cardioid family: compare
+    each distinct band's p (talker: one run per octave) at the same orientation."""
+    from scenesim.crosscheck_directivity import compare_directivity_with_pyroomacoustics
+
+    coef = directivity.coefficient_array
+    rows = []
+    print("  directivity vs pyroomacoustics CardioidFamily (same images; tolerance in tests 5e-3):")
+    for band, fc in enumerate(directivity.bands_hz):
+        p = float(coef[band, 0])  # order 1: p + (1 - p) cos
+        chk = compare_directivity_with_pyroomacoustics(
+            room, args.source, mics, fs=args.fs, max_order=max_order, p=p,
+            azimuth_deg=directivity.azimuth_deg, elevation_deg=directivity.elevation_deg,
+        )
+        label = f"{fc:g} Hz band" if directivity.n_bands > 1 else "pattern"
+        print(f"    {label:>14}: p={p:.3f} rel L2 per mic {', '.join(f'{v:.2e}' for v in chk.rel_l2)} "
+              f"(directivity changes the RIR by {max(chk.effect_rel_l2):.2f} rel L2)")
+        rows.append({"band_hz": fc, **chk.to_dict()})
+    return rows
+
+
+def _compare_hybrid(args, room, mics, max_order, directivity, h) -> dict:
+    """Hybrid vs the full ISM: early taps, T30 and EDT (20 Hz high-passed) of mic 0."""
+    from scipy import signal
+
+    from scenesim.ism import DEFAULT_MIXING_TIME_S
+    from scenesim.render import room_rir
+    from scenesim.rt60 import measure_rt60
+
+    # The same renderer and high-pass as the hybrid RIR, so only the tail differs.
+    full = room_rir(
+        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+        method="fast", directivity=directivity, highpass_hz=args.highpass if args.highpass else None,
+    )
+    n_mix = round((args.mixing_time or DEFAULT_MIXING_TIME_S) * args.fs)
+    sos = signal.butter(2, 20.0, btype="highpass", fs=args.fs, output="sos")
+    hf, hh = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, h[0])
+    res = {
+        "early_max_error_rel_peak": float(np.abs(h[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()),
+        "t30_ratio": measure_rt60(hh, args.fs, method="T30") / measure_rt60(hf, args.fs, method="T30"),
+        "edt_ratio": measure_rt60(hh, args.fs, method="EDT") / measure_rt60(hf, args.fs, method="EDT"),
+    }
+    print(f"  hybrid vs full ISM: early taps max err {res['early_max_error_rel_peak']:.1e} of peak, "
+          f"T30 ratio {res['t30_ratio']:.3f}, EDT ratio {res['edt_ratio']:.3f}")
+    return res
