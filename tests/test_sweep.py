@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("peers", 45, 8), ("reverb", 80, 5),
+    [("thesis", 18, 4), ("phone", 90, 8), ("mismatch", 96, 4), ("peers", 45, 10), ("reverb", 80, 5),
      ("distance", 36, 5), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
