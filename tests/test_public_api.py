@@ -91,3 +91,27 @@ def test_sensor_model_fixed_names():
     )
     for flag in ("--mic-gain-db", "--mic-phase-deg", "--mic-highpass-hz", "--self-noise-dba", "--speech-spl-db"):
         assert flag in out.stdout
+
+
+def test_added_fixed_names_of_the_robust_eb_reverberation_and_peers_issues():
+    # contract.md "Added fixed names": enhancers, presets, result columns, hybrid ISM, commands.
+    import benchmarks
+    from benchmarks.store import COLUMNS
+    from benchmarks.sweep import PRESETS
+
+    names = enhancers.available()
+    for name in ("eb-subband", "mic-calibration", "eb-robust", "eb-robust-ss", "mmse-lsa",
+                 "superdirective", "webrtc-ns", "rnnoise"):  # fmt: skip
+        assert name in names, name
+    assert {"phone", "mismatch", "distance", "peers"} <= set(PRESETS)
+    for col in ("sinr_in_db", "sinr_out_db", "sinr_i_db", "drr_in_db", "drr_out_db", "c50_in_db",
+                "c50_out_db", "srmr_in", "srmr_out", "t30_s", "edt_s", "drr_rir_db", "c50_rir_db"):  # fmt: skip
+        assert col in COLUMNS, col
+    assert callable(benchmarks.load_results)
+    room = scenesim.ShoeBox(dims_m=(5, 4, 3), absorption=0.3)
+    h = scenesim.image_source_rir(room, (1.0, 1.0, 1.5), [(3.0, 2.0, 1.2)], fs=16000, method="hybrid")
+    assert h.shape[0] == 1 and np.all(np.isfinite(h))
+    for argv in (["bench", "compare", "--help"], ["plugin", "new", "--help"]):
+        out = subprocess.run([sys.executable, "-m", "benchmarks.cli.main", *argv],
+                             capture_output=True, text=True, timeout=120)  # fmt: skip
+        assert out.returncode == 0, out.stderr
