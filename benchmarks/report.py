@@ -518,6 +518,8 @@ def write_report(
                 "noise",
                 "snr_values_db",
                 "snr_i_db",
+                "pesq_nb_raw_out",
+                "pesq_nb_raw_i",
                 "pesq_nb_out",
                 "pesq_wb_out",
                 "pesq_nb_i",
