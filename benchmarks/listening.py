@@ -2,7 +2,7 @@
 
 The store holds numbers, not audio.  For each chosen condition this module re-renders the
 scene from the row's recorded ``condition_json`` with the runner's own functions
-(:func:`benchmarks.runner.render_group`, :func:`benchmarks.runner.build_enhancer`, the
+(:func:`benchmarks.worker.render_group`, :func:`benchmarks.worker.build_enhancer`, the
 channel choice of :func:`benchmarks.evaluate._select_channels`), on the data directory
 recorded in the store's ``runs`` table, with the enhancer params of the recorded sweep.
 It then checks that the re-render is the stored one: the speech/noise sources must equal
@@ -192,8 +192,8 @@ def render_condition(
     ``notes`` says what could not (a changed data source or enhancer spec).
     """
     from benchmarks.evaluate import _select_channels
-    from benchmarks.runner import EnhancerSpec, build_enhancer, render_group
     from benchmarks.sweep import Condition
+    from benchmarks.worker import EnhancerSpec, build_enhancer, render_group
 
     first = next(iter(rows.values()))
     cond = Condition.from_json(first["condition_json"])

@@ -481,132 +481,112 @@ def write_report(
     all_rows = normalise_rows(rows)
     ok = [r for r in all_rows if r["status"] == "ok"]
     fields = [f for f in METRIC_FIELDS if any(f in r for r in all_rows)]
-    paths: list[Path] = []
+    generic = _generic_rows(ok)
 
+    cond_lines, cond_paths = _conditions_part(ok, fields, report_dir)
+    thesis_lines, thesis_paths = _thesis_part(ok, fields, report_dir)
+    sweep_lines, sweep_paths = _sweeps_part(generic, fields, report_dir)
+    fail_lines, fail_paths = _failures_part(all_rows, report_dir)
+    phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
+    mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
+    flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
+    reverb_lines, reverb_paths = report_reverb.reverb_sections(ok, report_dir)
+    written = [*cond_paths, *thesis_paths, *sweep_paths, *fail_paths, *phone_paths, *mismatch_paths,
+               *flag_paths, *reverb_paths]  # fmt: skip
+    fig_paths = figures.all_figures(generic, report_dir) if generic else []
+    fig_paths += [p for p in written if p.suffix == ".png"]
+    paths = [p for p in written if p.suffix != ".png"]
+
+    lines = [
+        *_meta_lines(meta, all_rows), *phone_lines, *mismatch_lines, *reverb_lines, *thesis_lines,
+        *sweep_lines, *cond_lines, *flag_lines, *fail_lines, *_sources_section(all_rows),
+        *_files_lines(paths, fig_paths),
+    ]  # fmt: skip
+    summary = report_dir / "summary.md"
+    summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    page = write_index(report_dir, summary.read_text(encoding="utf-8"), all_rows, store_dir=Path(out_dir), listen=listen)
+    return [summary, *paths, *fig_paths, *page]
+
+
+def _generic_rows(ok: Sequence[dict]) -> list[dict]:
+    """Rows the generic RT60/azimuth sweeps and figures may use.
+
+    A sensor-mismatch sweep has its own section; averaging its rows over the mismatch values
+    into RT60/azimuth sweeps would describe no microphone pair at all.  Reverberation studies
+    (rows with a metric target) draw placements per seed and have their own section
+    (:mod:`benchmarks.report_reverb`), which names the target.
+    """
+    generic = [] if report_sensors.mismatch_rows(ok) else ok
+    return [r for r in generic if not r.get("metric_target")]
+
+
+def _conditions_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
+    """Every (system, condition) group: ``conditions.csv`` and the "All conditions" section."""
     cond = sorted(
         aggregate(ok, CONDITION_KEYS, fields),
         key=lambda r: (T.system_rank(r["enhancer"]), str(r["enhancer"])),  # stable: keeps key order
     )
-    paths.append(
-        write_csv(report_dir / "conditions.csv", cond, [*CONDITION_KEYS, "n", *_with_std(fields)])
-    )
+    path = write_csv(report_dir / "conditions.csv", cond, [*CONDITION_KEYS, "n", *_with_std(fields)])
+    return _conditions_section(cond), [path]
+
+
+_AVERAGES_COLUMNS = ("enhancer", "thesis_system", "noise", "snr_values_db", "snr_i_db", "pesq_nb_raw_out",
+                     "pesq_nb_raw_i", "pesq_nb_out", "pesq_wb_out", "pesq_nb_i", "pesq_wb_i", "stoi_out",
+                     "thesis_snr_i_db", "thesis_pesq_out", "thesis_pesq_i", "thesis_n_snr")  # fmt: skip
+
+
+def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
+    """Rows at the thesis' conditions beside its tables: two CSVs and two sections (or a note)."""
     comparison = thesis_comparison(ok)
-    paths.append(
-        write_csv(
-            report_dir / "thesis_comparison.csv",
-            comparison,
-            [
-                "enhancer",
-                "thesis_system",
-                "noise",
-                "snr_in_db",
-                "n",
-                *_with_std(fields),
-                "thesis_table",
-                *("thesis_" + c for c in _THESIS_COLS),
-            ],  # fmt: skip
-        )
-    )
     avg = averages(comparison)
-    paths.append(
-        write_csv(
-            report_dir / "averages.csv",
-            avg,
-            [
-                "enhancer",
-                "thesis_system",
-                "noise",
-                "snr_values_db",
-                "snr_i_db",
-                "pesq_nb_raw_out",
-                "pesq_nb_raw_i",
-                "pesq_nb_out",
-                "pesq_wb_out",
-                "pesq_nb_i",
-                "pesq_wb_i",
-                "stoi_out",
-                "thesis_snr_i_db",
-                "thesis_pesq_out",
-                "thesis_pesq_i",
-                "thesis_n_snr",
-            ],  # fmt: skip
-        )
-    )
+    paths = [
+        write_csv(report_dir / "thesis_comparison.csv", comparison,
+                  ["enhancer", "thesis_system", "noise", "snr_in_db", "n", *_with_std(fields), "thesis_table",
+                   *("thesis_" + c for c in _THESIS_COLS)]),
+        write_csv(report_dir / "averages.csv", avg, list(_AVERAGES_COLUMNS)),
+    ]  # fmt: skip
+    if comparison or not ok:
+        return [*_thesis_section(comparison), *_averages_section(avg)], paths
+    note = ("No rows at the thesis' conditions (far field, 2.14 cm, 45°/270° point noise, anechoic, "
+            "ideal sensors): no thesis tables in this report.")  # fmt: skip
+    return [note, ""], paths
+
+
+def _sweeps_part(generic, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
+    """The generic RT60 and noise-azimuth sweeps (tables and CSVs) the rows support."""
     rt60_keys = (*figures.RT60_FIXED, "rt60_s")
     azim_keys = (*figures.AZIMUTH_FIXED, "noise_az_deg")
-    # A sensor-mismatch sweep has its own section; averaging its rows over the mismatch
-    # values into RT60/azimuth sweeps would describe no microphone pair at all.
-    generic = [] if report_sensors.mismatch_rows(ok) else ok
-    # Reverberation studies (rows with a metric target) draw placements per seed and have
-    # their own section (report_reverb), which names the target.
-    generic = [r for r in generic if not r.get("metric_target")]
     rt60, rt60_notes = _sweep(generic, "rt60_s", figures.RT60_FIXED, figures.RT60_PREFER, 1)
     azim, azim_notes = _sweep(
-        generic,
-        "noise_az_deg",
-        figures.AZIMUTH_FIXED,
-        figures.AZIMUTH_PREFER,
-        figures.MAX_AZIMUTH_GROUPS,
+        generic, "noise_az_deg", figures.AZIMUTH_FIXED, figures.AZIMUTH_PREFER, figures.MAX_AZIMUTH_GROUPS
     )
+    paths = []
     if rt60:
         cols = ["enhancer", "noise", *rt60_keys, "n", *_with_std(fields)]
         paths.append(write_csv(report_dir / "rt60_sweep.csv", rt60, cols))
     if azim:
         cols = ["enhancer", "noise", *azim_keys, "n", *_with_std(fields)]
         paths.append(write_csv(report_dir / "azimuth_sweep.csv", azim, cols))
-    fail = failures(all_rows)
-    paths.append(
-        write_csv(
-            report_dir / "failures.csv",
-            [
-                r
-                for r in all_rows
-                if r["status"] != "ok" or r.get("error") or r.get("latency_check")
-            ],
-            [
-                "condition_id",
-                "enhancer",
-                "noise",
-                "snr_in_db",
-                "rt60_s",
-                "noise_az_deg",
-                "seed",
-                "status",
-                "error",
-                "latency_check",
-            ],  # fmt: skip
-        )
-    )
-    fig_paths = figures.all_figures(generic, report_dir) if generic else []
-    phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
-    mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
-    flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
-    reverb_lines, reverb_paths = report_reverb.reverb_sections(ok, report_dir)
-    paths += [p for p in (*phone_paths, *mismatch_paths, *flag_paths, *reverb_paths) if p.suffix != ".png"]
-    fig_paths += [p for p in (*phone_paths, *mismatch_paths, *reverb_paths) if p.suffix == ".png"]
+    lines = [
+        *_sweep_section("Reverberation (RT60 sweep)", rt60, rt60_keys, rt60_notes),
+        *_sweep_section("Noise azimuth sweep", azim, azim_keys, azim_notes),
+    ]
+    return lines, paths
 
-    lines = _meta_lines(meta, all_rows)
-    lines += phone_lines
-    lines += mismatch_lines
-    lines += reverb_lines
-    if comparison or not ok:
-        lines += _thesis_section(comparison)
-        lines += _averages_section(avg)
-    else:
-        lines += ["No rows at the thesis' conditions (far field, 2.14 cm, 45°/270° point noise, "
-                  "anechoic, ideal sensors): no thesis tables in this report.", ""]
-    lines += _sweep_section("Reverberation (RT60 sweep)", rt60, rt60_keys, rt60_notes)
-    lines += _sweep_section("Noise azimuth sweep", azim, azim_keys, azim_notes)
-    lines += _conditions_section(cond)
-    lines += flag_lines
-    lines += _failures_section(fail, len(all_rows))
-    lines += _sources_section(all_rows)
-    lines += ["## Files", ""]
-    lines += [f"- `{p.name}`" for p in [*paths, *fig_paths]]
+
+_FAILURE_COLUMNS = ("condition_id", "enhancer", "noise", "snr_in_db", "rt60_s", "noise_az_deg", "seed",
+                    "status", "error", "latency_check")  # fmt: skip
+
+
+def _failures_part(all_rows, report_dir: Path) -> tuple[list[str], list[Path]]:
+    """Enhancer and metric failures, latency and SNR warnings: ``failures.csv`` and its section."""
+    listed = [r for r in all_rows if r["status"] != "ok" or r.get("error") or r.get("latency_check")]
+    path = write_csv(report_dir / "failures.csv", listed, list(_FAILURE_COLUMNS))
+    return _failures_section(failures(all_rows), len(all_rows)), [path]
+
+
+def _files_lines(paths: Sequence[Path], fig_paths: Sequence[Path]) -> list[str]:
+    lines = ["## Files", "", *(f"- `{p.name}`" for p in [*paths, *fig_paths])]
     if fig_paths:
-        lines += ["", "## Figures", ""]
-        lines += [f"![{p.stem}]({p.name})\n" for p in fig_paths]
-    summary = report_dir / "summary.md"
-    summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    page = write_index(report_dir, summary.read_text(encoding="utf-8"), all_rows, store_dir=Path(out_dir), listen=listen)
-    return [summary, *paths, *fig_paths, *page]
+        lines += ["", "## Figures", "", *(f"![{p.stem}]({p.name})\n" for p in fig_paths)]
+    return lines

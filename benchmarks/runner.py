@@ -1,100 +1,51 @@
-"""Running a sweep: split it into units, run them on an executor, store rows as units finish.
+"""Running a sweep (the driver): plan the work, run it on an executor, store rows as units finish.
 
-A condition (scene x noise x SNR x seed) and the enhancers still missing for it is a
-:class:`ConditionTask`; :func:`run_condition` is a pure function of it (condition,
-enhancer specs, data directory) -> rows, so any executor gives the same numbers.  Inside
-a worker process the rendered scene of a geometry group (everything but the SNR) is kept
-in a small cache, so a group is rendered once and only re-mixed per SNR; input metrics
-are computed once per mixture, then each enhancer is run and measured.  A unit of work
-(:class:`UnitTask`) is one condition, or a whole geometry group when there are enough
-groups to keep every worker busy (:func:`plan_units`).
-
-The driver (:func:`run_sweep`) is the only process that writes the store: one
-transaction per finished unit, so ``kill -9`` loses at most the units in flight and a
-rerun computes only what is missing.
+The work of one condition is :func:`benchmarks.worker.run_condition`; this module plans the
+tasks (:func:`plan_conditions`, :func:`plan_units`), runs them on an executor and is the only
+process that writes the store: one transaction per finished condition, so ``kill -9`` loses
+at most the units in flight and a rerun computes only what is missing.  A unit of work
+(:class:`~benchmarks.worker.UnitTask`) is one condition, or a whole geometry group when
+there are enough groups to keep every worker busy.  The report glue is
+:mod:`benchmarks.store_report`.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import json
 import os
-import socket
 import sys
 import time
-import traceback
 import warnings
-from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from benchmarks.executors import EXECUTORS, make_executor
-from benchmarks.store import ResultStore, package_versions
+from benchmarks.store import ResultStore
+from benchmarks.store_report import report_meta, write_store_report
 from benchmarks.sweep import Condition, Sweep, load_sweep
 from benchmarks.versioning import check_version
+from benchmarks.worker import (  # re-exported: the runner's public names before the split
+    ConditionTask,
+    EnhancerSpec,
+    UnitTask,
+    _condition_columns,
+    _exc_text,
+    build_enhancer,
+    build_scene,
+    build_sensors,
+    group_parts,
+    render_group,
+    run_condition,
+    run_unit,
+    sensor_columns,
+)
 from scenesim.errors import ConfigError, ParameterError
-from scenesim.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_choice
 
-WORKER_PRELOAD = ("benchmarks.runner", "benchmarks.evaluate", "data_recipes", "enhancers.registry", "scenesim.scene")
+WORKER_PRELOAD = ("benchmarks.runner", "benchmarks.worker", "benchmarks.evaluate", "data_recipes", "enhancers.registry", "scenesim.scene")
 """Modules a local pool's fork server imports once, so its workers start warm."""
-
-# Condition columns every row of a unit carries (the store's names).
-_CONDITION_COLUMNS = (
-    "noise",
-    "rt60_s",
-    "speech_az_deg",
-    "noise_az_deg",
-    "seed",
-    "room",
-    "distance_m",
-    "noise_distance_m",
-    "noise_field",
-    "fs",
-    "duration_s",
-    "far_field",
-    "spacing_m",
-    "wind_speed_mps",
-)
-
-
-@dataclass(frozen=True)
-class EnhancerSpec:
-    """What a worker needs to build one enhancer: the sweep's name for it and its params."""
-
-    name: str
-    params_json: str = "{}"
-
-    @property
-    def params(self) -> dict[str, Any]:
-        return json.loads(self.params_json)
-
-
-@dataclass(frozen=True)
-class ConditionTask:
-    """One condition and the enhancers still to run on it (picklable, small)."""
-
-    condition_json: str
-    enhancers: tuple[EnhancerSpec, ...]
-    data_dir: str | None = None
-
-    @property
-    def condition(self) -> Condition:
-        return Condition.from_json(self.condition_json)
-
-
-@dataclass(frozen=True)
-class UnitTask:
-    """One unit of work for an executor: one condition, or every condition of a geometry group."""
-
-    conditions: tuple[ConditionTask, ...]
-
-    def __len__(self) -> int:
-        return len(self.conditions)
-
 
 @dataclass(frozen=True)
 class RunSummary:
@@ -119,221 +70,6 @@ class RunSummary:
             f"stored; {self.n_rows} rows written ({self.n_errors} with status 'error') "
             f"in {self.wall_s:.1f} s"
         )
-
-
-# -- the worker side ---------------------------------------------------------------------
-
-_DATASETS: dict[tuple[str | None, int], Any] = {}
-_IMAGES: OrderedDict[tuple, Any] = OrderedDict()
-_IMAGES_MAX = 2  # a worker interleaves at most a couple of geometry groups
-
-
-def _dataset(data_dir: str | None, fs: int):
-    key = (data_dir, fs)
-    if key not in _DATASETS:
-        from data_recipes import open_data
-
-        _DATASETS[key] = open_data(data_dir, fs=fs)
-    return _DATASETS[key]
-
-
-def build_sensors(cond: Condition):
-    """The condition's sensors: nominal mismatch and self-noise, this seed's production draw.
-
-    None for the thesis' ideal sensors (identical noiseless mics).
-    """
-    from scenesim.sensors import SensorModel, SensorTolerance
-
-    if cond.ideal_sensors:
-        return None
-    nominal = SensorModel.from_mismatch(
-        gain_db=cond.mic_gain_db,
-        phase_deg=cond.mic_phase_deg,
-        highpass_hz=cond.mic_highpass_hz,
-        self_noise_dba=cond.self_noise_dba,
-        speech_spl_db=cond.speech_spl_db,
-    )
-    tolerance = SensorTolerance(
-        gain_tol_db=cond.mic_gain_tol_db,
-        phase_tol_deg=cond.mic_phase_tol_deg,
-        highpass_tol_hz=cond.mic_highpass_tol_hz,
-    )
-    return tolerance.draw(nominal, seed=cond.seed)
-
-
-def sensor_columns(cond: Condition) -> dict[str, Any]:
-    """The sensor parameters a row was computed with (drawn values, not the nominal ones)."""
-    from scenesim.sensors import SensorModel
-
-    sensors = build_sensors(cond)
-    out = (sensors or SensorModel()).describe()
-    out["ideal_sensors"] = int(sensors is None)
-    out["snr_band_lo_hz"], out["snr_band_hi_hz"] = cond.snr_band_hz or (None, None)
-    return out
-
-
-def build_scene(cond: Condition):
-    """The :class:`scenesim.scene.Scene` of a condition (same for every SNR of its group)."""
-    from scenesim.geometry import MicPair
-    from scenesim.room import ShoeBox
-    from scenesim.scene import NoiseSource, Scene, SourcePlacement
-
-    room = None
-    if cond.room_dims_m is not None:
-        room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
-    placed = {}  # fields have no place: keep NoiseSource's defaults
-    if cond.noise_az_deg is not None:
-        placed["azimuth_deg"] = cond.noise_az_deg
-    if cond.noise_distance_m is not None:
-        placed["distance_m"] = cond.noise_distance_m
-    return Scene(
-        fs=cond.fs,
-        pair=MicPair(cond.pair_center_m, spacing_m=cond.spacing_m, axis_azimuth_deg=cond.axis_azimuth_deg),
-        room=room,
-        speech=SourcePlacement(azimuth_deg=cond.speech_az_deg, distance_m=cond.distance_m),
-        noises=(NoiseSource(field=cond.noise_field, wind_speed_mps=cond.wind_speed_mps, **placed),),
-        snr_db=cond.snr_db,
-        far_field=cond.far_field,
-        snr_mode=cond.snr_mode,
-        reference=cond.reference,
-        seed=cond.seed,
-        sensors=build_sensors(cond),
-        snr_band_hz=cond.snr_band_hz,
-    )
-
-
-def _noise_channels(field_type: str) -> int:
-    # Diffuse, incoherent and wind fields are built from two independent noise channels;
-    # point and spread sources from one recording (spread: disjoint excerpts of it).
-    return 1 if field_type in ("point", "spread") else 2
-
-
-def render_group(cond: Condition, data_dir: str | None):
-    """``(SceneImages, speech_source, noise_source)`` of a condition's geometry group (cached)."""
-    key = (data_dir, cond.group_id)
-    if key in _IMAGES:
-        _IMAGES.move_to_end(key)
-        return _IMAGES[key]
-    from scenesim.scene import render_images
-
-    ds = _dataset(data_dir, cond.fs)
-    speech = ds.speech(cond.duration_s, seed=cond.seed)
-    noise = ds.noise(cond.noise, cond.duration_s, seed=cond.seed, n_channels=_noise_channels(cond.noise_field))
-    images = render_images(build_scene(cond), _mono(speech.signal), [_squeeze(noise.signal)])
-    value = (images, str(speech.source), str(noise.source))
-    _PARTS[key] = _speech_parts(cond, images, _mono(speech.signal))
-    _IMAGES[key] = value
-    while len(_IMAGES) > _IMAGES_MAX:
-        _PARTS.pop(_IMAGES.popitem(last=False)[0], None)
-    return value
-
-
-_PARTS: dict[tuple, Any] = {}  # (speech parts, acoustics columns) beside each cached group
-
-
-def _speech_parts(cond: Condition, images, speech):
-    """Speech parts and room acoustics of a group; None where reverberation is not studied
-    (free field with a direct-path target: the thesis sweeps pay nothing for it)."""
-    if cond.rt60_s == 0.0 and cond.reference == "direct":
-        return None, {}
-    from benchmarks.reverb_metrics import acoustics_columns
-    from scenesim.reverb_parts import speech_parts
-
-    parts = speech_parts(images, speech, early_window_s=cond.early_window_ms / 1000.0)
-    return parts, acoustics_columns(images, parts, rt60_target_s=cond.rt60_s)
-
-
-def group_parts(cond: Condition, data_dir: str | None):
-    """``(SpeechParts or None, acoustics columns)`` of a condition's group (after :func:`render_group`)."""
-    render_group(cond, data_dir)
-    return _PARTS[(data_dir, cond.group_id)]
-
-
-def _mono(x):
-    import numpy as np
-
-    x = np.asarray(x, dtype=np.float64)
-    return x[0] if x.ndim == 2 else x
-
-
-def _squeeze(x):
-    import numpy as np
-
-    x = np.asarray(x, dtype=np.float64)
-    return x[0] if x.ndim == 2 and x.shape[0] == 1 else x
-
-
-def build_enhancer(spec: EnhancerSpec, cond: Condition):
-    """The enhancer of a spec, with the condition's array geometry when it needs one."""
-    from enhancers.registry import make, with_geometry
-
-    return with_geometry(make(spec.name, **spec.params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
-
-
-def run_unit(unit: UnitTask) -> list[list[dict[str, Any]]]:
-    """The rows of every condition of a unit (one list per condition, in the unit's order)."""
-    return [run_condition(task) for task in unit.conditions]
-
-
-def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
-    """Compute the rows of one condition: render (or reuse) the scene, mix, measure every enhancer.
-
-    Never raises for a problem with the condition: a failure to render or to build an
-    enhancer gives rows with ``status='error'`` and the reason in ``error``.
-    """
-    from benchmarks.evaluate import evaluate_enhancer, input_metrics
-
-    cond = task.condition
-    worker = f"{socket.gethostname()}:{os.getpid()}"
-    base = {
-        **_condition_columns(cond),
-        "scenesim_version": _scenesim_version(),
-        "worker": worker,
-    }
-    rows: list[dict[str, Any]] = []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            t0 = time.perf_counter()
-            images, speech_source, noise_source = render_group(cond, task.data_dir)
-            parts, acoustics = group_parts(cond, task.data_dir)
-            rendered = images.mix(cond.snr_db)
-            if parts is not None and parts.reverberant and cond.reference != "direct":
-                # Target = direct + early (the sweep's early window) for every intrusive metric.
-                rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
-            base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
-            base["render_s"] = time.perf_counter() - t0
-            inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
-        except Exception as exc:
-            text = _exc_text(exc)
-            return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
-        for spec in task.enhancers:
-            row = dict(base)
-            try:
-                enhancer = build_enhancer(spec, cond)
-                row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
-                row["enhancer_version"] = str(enhancer.version)
-                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs, speech_parts=parts))
-            except Exception as exc:
-                row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
-            row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
-            rows.append(row)
-    notes = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
-    if notes:
-        for row in rows:
-            row["warnings"] = "\n".join(notes)
-    return rows
-
-
-@functools.lru_cache(maxsize=1)
-def _scenesim_version() -> str | None:
-    return package_versions(("scenesim",))["scenesim"]
-
-
-def _exc_text(exc: BaseException) -> str:
-    tb = traceback.extract_tb(exc.__traceback__)
-    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name})" if tb else ""
-    return f"{type(exc).__name__}: {exc}{where}"
 
 
 # -- the driver side ---------------------------------------------------------------------
@@ -420,19 +156,8 @@ def run_sweep(
         recomputed; rerunning after an interruption computes only what is missing.
     """
     check_choice("executor", executor, EXECUTORS)
-    if not isinstance(sweep, Sweep):
-        sweep = load_sweep(sweep)
-    if seed is not None:
-        sweep = sweep.with_seed(seed)
-    conditions = sweep.conditions()
-    if limit is not None:
-        if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
-            raise ParameterError("limit", limit, "an integer >= 1")
-        conditions = conditions[:limit]
-    if data_dir is None:
-        data_dir = os.environ.get("SCENESIM_DATA") or None
-    data_dir = str(Path(data_dir).resolve()) if data_dir else None
-
+    sweep, conditions = _select_conditions(sweep, seed=seed, limit=limit)
+    data_dir = _resolve_data_dir(data_dir)
     _check_data(conditions, data_dir)
 
     out_dir = Path(out_dir)
@@ -452,27 +177,13 @@ def run_sweep(
             scheduler=scheduler,
             data_dir=data_dir,
         )
-        n_rows = n_errors = 0
-        notes: dict[str, None] = {}
+        tally = _Tally()
         status = "failed"
         try:
             if tasks:
                 ex = make_executor(executor, workers=workers, scheduler=scheduler, preload=WORKER_PRELOAD)
                 try:
-                    units = plan_units(tasks, workers=ex.workers or 1)
-                    with _progress(len(tasks), sweep.name, enabled=progress) as bar:
-                        for unit, outcome in ex.run(run_unit, units):
-                            for rows in _rows_of(unit, outcome, run_id, version):
-                                # one transaction per condition: a kill never leaves half of one
-                                n_rows += store.write_rows(rows)
-                                n_errors += sum(r.get("status") != "ok" for r in rows)
-                                for r in rows:
-                                    for note in (r.get("warnings") or "").split("\n"):
-                                        if note:
-                                            notes[note] = None
-                            bar.update(len(unit))
-                            if n_errors:
-                                bar.set_postfix(errors=n_errors, refresh=False)
+                    _execute(ex, tasks, store, tally, run_id=run_id, version=version, name=sweep.name, progress=progress)
                 finally:
                     ex.close()
             status = "finished"
@@ -480,15 +191,8 @@ def run_sweep(
             status = "interrupted"
             raise
         finally:
-            store.finish_run(run_id, status=status, n_rows_written=n_rows, n_errors=n_errors)
-
-        report_files: tuple[Path, ...] = ()
-        report_error = None
-        if report:
-            try:
-                report_files = tuple(write_store_report(out_dir, store=store))
-            except Exception as exc:  # the rows are safe in the store; say so instead of crashing
-                report_error = _exc_text(exc)
+            store.finish_run(run_id, status=status, n_rows_written=tally.n_rows, n_errors=tally.n_errors)
+        report_files, report_error = _try_report(out_dir, store) if report else ((), None)
     return RunSummary(
         out_dir=out_dir,
         store_path=store.path,
@@ -496,13 +200,73 @@ def run_sweep(
         n_conditions=len(conditions),
         n_computed=len(tasks),
         n_skipped=len(conditions) - len(tasks),
-        n_rows=n_rows,
-        n_errors=n_errors,
+        n_rows=tally.n_rows,
+        n_errors=tally.n_errors,
         wall_s=time.perf_counter() - t_start,
         report_files=report_files,
         report_error=report_error,
-        warnings=tuple(notes),
+        warnings=tuple(tally.notes),
     )
+
+
+def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: int | None):
+    """``(sweep, conditions)``: the sweep loaded, its seeds offset, its first ``limit`` conditions."""
+    if not isinstance(sweep, Sweep):
+        sweep = load_sweep(sweep)
+    if seed is not None:
+        sweep = sweep.with_seed(seed)
+    conditions = sweep.conditions()
+    if limit is not None:
+        if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+            raise ParameterError("limit", limit, "an integer >= 1")
+        conditions = conditions[:limit]
+    return sweep, conditions
+
+
+def _resolve_data_dir(data_dir: str | Path | None) -> str | None:
+    """The data directory as an absolute path text: the argument, else ``$SCENESIM_DATA``, else None."""
+    if data_dir is None:
+        data_dir = os.environ.get("SCENESIM_DATA") or None
+    return str(Path(data_dir).resolve()) if data_dir else None
+
+
+@dataclass
+class _Tally:
+    """What a run has written so far (rows, error rows, distinct warning texts in order)."""
+
+    n_rows: int = 0
+    n_errors: int = 0
+    notes: dict[str, None] = field(default_factory=dict)
+
+    def add(self, rows: Sequence[dict[str, Any]], n_written: int) -> None:
+        self.n_rows += n_written
+        self.n_errors += sum(r.get("status") != "ok" for r in rows)
+        for r in rows:
+            for note in (r.get("warnings") or "").split("\n"):
+                if note:
+                    self.notes[note] = None
+
+
+def _execute(ex, tasks, store: ResultStore, tally: _Tally, *, run_id: str, version: str, name: str, progress: bool) -> None:
+    """Run every task on executor ``ex``; write each condition's rows as its unit finishes."""
+    units = plan_units(tasks, workers=ex.workers or 1)
+    with _progress(len(tasks), name, enabled=progress) as bar:
+        for unit, outcome in ex.run(run_unit, units):
+            for rows in _rows_of(unit, outcome, run_id, version):
+                # one transaction per condition: a kill never leaves half of one
+                tally.add(rows, store.write_rows(rows))
+            bar.update(len(unit))
+            if tally.n_errors:
+                bar.set_postfix(errors=tally.n_errors, refresh=False)
+
+
+def _try_report(out_dir: Path, store: ResultStore) -> tuple[tuple[Path, ...], str | None]:
+    """``(files, None)``, or ``((), reason)`` when the report fails: the rows are safe in the
+    store, so a report failure is said, never raised."""
+    try:
+        return tuple(write_store_report(out_dir, store=store)), None
+    except Exception as exc:
+        return (), _exc_text(exc)
 
 
 def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
@@ -538,17 +302,6 @@ def _rows_of(unit: UnitTask, outcome: Any, run_id: str, version: str | None = No
 def _error_rows(task: ConditionTask, message: str) -> list[dict[str, Any]]:
     cond = task.condition
     return [{**_condition_columns(cond), "enhancer": s.name, "status": "error", "error": message} for s in task.enhancers]
-
-
-def _condition_columns(cond: Condition) -> dict[str, Any]:
-    return {
-        "condition_id": cond.id,
-        "snr_in_db": cond.snr_db,
-        **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
-        **sensor_columns(cond),
-        "group_id": cond.group_id,
-        "condition_json": cond.to_json(),
-    }
 
 
 def _warn_changed_data(store: ResultStore, data_dir: str | None, *, n_kept: int) -> None:
@@ -589,54 +342,6 @@ def _progress(total: int, name: str, *, enabled: bool):
     return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
 
 
-def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
-    """Write ``out_dir/report`` (Markdown, CSV, PNG, index.html) from every row of ``out_dir/results.sqlite``.
-
-    ``listen``: a :class:`benchmarks.listening.ListenOptions` (which conditions get audio).
-    """
-    from benchmarks.report import write_report
-
-    own = store is None
-    if own:
-        store = ResultStore.open(out_dir, readonly=True)
-    try:
-        rows = store.rows()
-        runs = store.runs()
-        version = store.get_meta("sweep_version")
-    finally:
-        if own:
-            store.close()
-    meta = report_meta(runs, Path(out_dir) / "results.sqlite")
-    if version is not None:
-        # Never average rows of two sweep versions: the store's current version only.
-        other = sum(r.get("sweep_version") not in (None, version) for r in rows)
-        rows = [r for r in rows if r.get("sweep_version") in (None, version)]
-        meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
-    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
-
-
-def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:
-    """One-line facts for the report's header: store, sweeps, runs, data, versions."""
-    meta = {"store": str(store_path)}
-    if not runs:
-        return meta
-    last = runs[-1]
-    meta["sweep"] = ", ".join(dict.fromkeys(str(r["sweep"]) for r in runs))
-    workers = f", {last['workers']} workers" if last.get("workers") else ""
-    where = f" at {last['scheduler']}" if last.get("scheduler") else ""
-    meta["runs"] = (
-        f"{len(runs)}; last: {last['executor']}{where}{workers}, on {last['hostname']}, "
-        f"{last['started_at']} -> {last['finished_at'] or '(unfinished)'}, {last['status']}"
-    )
-    meta["data"] = str(last.get("data_dir") or "built-in (artificial voice + synthesized noise)")
-    try:
-        versions = json.loads(last.get("versions_json") or "{}")
-    except ValueError:
-        versions = {}
-    meta["versions"] = ", ".join(f"{k} {v}" for k, v in versions.items() if v)
-    return meta
-
-
 __all__ = [
     "EnhancerSpec",
     "RunSummary",
@@ -644,11 +349,15 @@ __all__ = [
     "UnitTask",
     "build_enhancer",
     "build_scene",
+    "build_sensors",
+    "group_parts",
     "plan_conditions",
     "plan_units",
+    "report_meta",
     "run_condition",
     "render_group",
     "run_sweep",
     "run_unit",
+    "sensor_columns",
     "write_store_report",
 ]

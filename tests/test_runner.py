@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import runner
+from benchmarks import worker
 from benchmarks.runner import (
     ConditionTask,
     EnhancerSpec,
@@ -60,11 +60,11 @@ def test_run_unit_is_pure_and_the_render_cache_changes_nothing():
     sweep = parse_sweep(TINY)
     cond = sweep.conditions()[0]
     task = ConditionTask(cond.to_json(), (EnhancerSpec("passthrough"), EnhancerSpec("ss")))
-    runner._IMAGES.clear()
+    worker._IMAGES.clear()
     first = run_condition(task)
-    assert len(runner._IMAGES) == 1  # the geometry group stays cached for the next SNR
+    assert len(worker._IMAGES) == 1  # the geometry group stays cached for the next SNR
     again = run_condition(task)  # from the cache
-    runner._IMAGES.clear()
+    worker._IMAGES.clear()
     fresh = run_condition(task)  # rendered anew
     assert [r["status"] for r in first] == ["ok", "ok"], [r["error"] for r in first]
     for a, b, c in zip(first, again, fresh):

@@ -123,7 +123,7 @@ def _run(args) -> int:
 
 def _report(args) -> int:
     from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
-    from benchmarks.runner import write_store_report
+    from benchmarks.store_report import write_store_report
 
     count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
     files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
