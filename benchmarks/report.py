@@ -56,10 +56,6 @@ MAX_MARKDOWN_CONDITIONS = 150
 _THESIS_COLS = ("snr_out_db", "snr_i_db", "pesq_in", "pesq_out", "pesq_i")
 
 
-def _enhancer_order(names: Iterable[str]) -> list[str]:
-    return sorted(set(names), key=lambda n: (T.system_rank(n), str(n)))
-
-
 def _with_std(fields: Sequence[str]) -> list[str]:
     return [c for f in fields for c in (f, f + "_std", f + "_ci95")]
 
@@ -119,7 +115,7 @@ def averages(comparison: Sequence[dict]) -> list[dict[str, Any]]:
             avg["thesis_" + col] = sum(vals) / len(vals) if vals else None
         avg["thesis_n_snr"] = len(matched)
         out.append(avg)
-    order = _enhancer_order(r["enhancer"] for r in out)
+    order = T.system_order(r["enhancer"] for r in out)
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), r["noise"]))
 
 
@@ -443,7 +439,7 @@ def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[st
     seeds = distinct(rows, "seed")
     lines += [
         f"- **rows**: {len(rows)} ({n_ok} ok, {len(rows) - n_ok} error); systems: "
-        f"{', '.join(_enhancer_order(r['enhancer'] for r in rows if r.get('enhancer')))}; "
+        f"{', '.join(T.system_order(r['enhancer'] for r in rows if r.get('enhancer')))}; "
         f"noises: {', '.join(str(n) for n in distinct(rows, 'noise'))}; seeds: {len(seeds)}",
         "",
     ]

@@ -19,7 +19,6 @@ rows hold no such data.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -49,17 +48,6 @@ _TABLE_FIELDS = (("sinr_i_db", "SINR-I dB"), ("snr_i_db", "SNR-I (noise only) dB
                  ("pesq_nb_raw_out", "PESQ out (raw)"), ("stoi_out", "STOI out"))  # fmt: skip
 
 
-def _cond(row: dict) -> dict:
-    try:
-        return json.loads(row.get("condition_json") or "{}")
-    except ValueError:
-        return {}
-
-
-def _order(names) -> list[str]:
-    return sorted(set(names), key=lambda n: (T.system_rank(n), str(n)))
-
-
 def reverb_rows(ok: Sequence[dict]) -> list[dict]:
     """Rows scored with a stated target, with the DRR/C50 gains derived (``out - in``)."""
     out = []
@@ -83,10 +71,10 @@ def split_studies(rows: Sequence[dict]) -> tuple[list[dict], list[dict]]:
     groups: dict[Any, list[dict]] = {}
     rt60 = []
     for r in rows:
-        if _cond(r).get("distance_range_m"):
+        if T.condition_params(r).get("distance_range_m"):
             rt60.append(r)
         else:
-            groups.setdefault((r.get("sweep_version"), _cond(r).get("room")), []).append(r)
+            groups.setdefault((r.get("sweep_version"), T.condition_params(r).get("room")), []).append(r)
     dist = []
     for members in groups.values():
         (dist if len(distinct(members, "distance_m")) > 1 else rt60).extend(members)
@@ -109,13 +97,13 @@ def target_text(rows: Sequence[dict]) -> str:
 
 def rt60_summary(rows: Sequence[dict]) -> list[dict[str, Any]]:
     out = aggregate_over_seeds(rows, ("enhancer", "rt60_s"), REVERB_FIELDS)
-    order = _order(r["enhancer"] for r in out)
+    order = T.system_order(r["enhancer"] for r in out)
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), r["rt60_s"]))
 
 
 def distance_summary(rows: Sequence[dict]) -> list[dict[str, Any]]:
     out = aggregate_over_seeds(rows, ("enhancer", "rt60_s", "distance_m"), REVERB_FIELDS)
-    order = _order(r["enhancer"] for r in out)
+    order = T.system_order(r["enhancer"] for r in out)
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), r["rt60_s"], r["distance_m"]))
 
 
@@ -159,7 +147,7 @@ def _table(recs: Sequence[dict], keys: Sequence[tuple[str, str]]) -> str:
 
 
 def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, path: Path, logx: bool) -> Path:
-    names = _order(r["enhancer"] for r in recs)
+    names = T.system_order(r["enhancer"] for r in recs)
     groups = distinct(recs, group_key) if group_key else [None]
     fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))
     cmap = plt.get_cmap("tab10")

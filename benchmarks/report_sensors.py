@@ -16,7 +16,6 @@ rows hold no such data.  Rows are :func:`benchmarks.report_tables.normalise_rows
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -49,17 +48,6 @@ PHONE_FIELDS = ("snr_i_db", "snr_i_hagerman_db", "snr_i_band_db", "pesq_nb_raw_o
 _TOLERANCE_KEYS = ("mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz")
 
 
-def _cond(row: dict) -> dict:
-    try:
-        return json.loads(row.get("condition_json") or "{}")
-    except ValueError:
-        return {}
-
-
-def _order(names) -> list[str]:
-    return sorted(set(names), key=lambda n: (T.system_rank(n), str(n)))
-
-
 def _pm(rec: dict, f: str, digits: int = 2) -> str:
     return fmt(rec.get(f), digits, rec.get(f + "_ci95"))
 
@@ -70,7 +58,7 @@ def _pm(rec: dict, f: str, digits: int = 2) -> str:
 def phone_rows(ok: Sequence[dict]) -> list[dict]:
     """Rows whose microphones were drawn per seed (a sensor tolerance is set); reverberation
     studies (rows with a ``metric_target``) have their own section (benchmarks.report_reverb)."""
-    return [r for r in ok if any(num(_cond(r).get(k)) for k in _TOLERANCE_KEYS) and not r.get("metric_target")]
+    return [r for r in ok if any(num(T.condition_params(r).get(k)) for k in _TOLERANCE_KEYS) and not r.get("metric_target")]
 
 
 def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) -> list[dict[str, Any]]:
@@ -95,13 +83,13 @@ def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) ->
         thesis = T.thesis_averages().get((T.thesis_system(rec["enhancer"]) or "", rec["noise"]))
         rec["thesis_snr_i_db"] = thesis["snr_i_db"] if thesis else None
         rec["thesis_pesq_out"] = thesis["pesq_out"] if thesis else None
-    order = _order(r["enhancer"] for r in out)
+    order = T.system_order(r["enhancer"] for r in out)
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), str(r["noise"])))
 
 
 def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
     noises = sorted({r["noise"] for r in summary})
-    names = _order(r["enhancer"] for r in summary)
+    names = T.system_order(r["enhancer"] for r in summary)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / max(len(names), 1)
     cmap = plt.get_cmap("tab10")
@@ -155,7 +143,7 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
                    *[c for f in PHONE_FIELDS for c in (f, f + "_ci95")]]),
     ]  # fmt: skip
     paths.append(_phone_figure(summary, report_dir))
-    cond = _cond(rows[0])
+    cond = T.condition_params(rows[0])
     facts = (
         f"±{num(cond.get('mic_gain_tol_db')) or 0:g} dB sensitivity per mic, high-pass corners "
         f"{_fmt_corners(cond.get('mic_highpass_hz'))} ± {num(cond.get('mic_highpass_tol_hz')) or 0:g} Hz, "
@@ -245,7 +233,7 @@ def mismatch_rows(ok: Sequence[dict]) -> list[dict]:
     """Rows of a nominal-mismatch sweep (no per-seed tolerance), with the nominal values."""
     out = []
     for r in ok:
-        c = _cond(r)
+        c = T.condition_params(r)
         if any(num(c.get(k)) for k in _TOLERANCE_KEYS):
             continue
         gain, phase = num(c.get("mic_gain_db")) or 0.0, num(c.get("mic_phase_deg")) or 0.0
@@ -263,7 +251,7 @@ _MISMATCH_FIELDS = ("snr_i_db", "snr_i_hagerman_db", "pesq_nb_raw_out", "pesq_nb
 
 def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -> Path:
     geos = sorted({r["geometry"] for r in agg})
-    names = _order(r["enhancer"] for r in agg if r["enhancer"] != "passthrough") or ["passthrough"]
+    names = T.system_order(r["enhancer"] for r in agg if r["enhancer"] != "passthrough") or ["passthrough"]
     phases = sorted({r["nominal_phase_deg"] for r in agg})
     noises = sorted({r["self_noise"] for r in agg}, key=lambda v: (v != "none", v))  # noiseless: solid
     fig, axes = plt.subplots(len(geos), len(names), figsize=(4.2 * len(names), 3.2 * len(geos)), squeeze=False)

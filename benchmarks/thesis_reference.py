@@ -84,6 +84,11 @@ def system_rank(enhancer: str) -> int:
     return SYSTEM_ORDER.index(base) if base in SYSTEM_ORDER else len(SYSTEM_ORDER)
 
 
+def system_order(names) -> list[str]:
+    """Distinct system names in :data:`SYSTEM_ORDER`, other plugins after them by name."""
+    return sorted(set(names), key=lambda n: (system_rank(n), str(n)))
+
+
 def thesis_system(enhancer: str) -> str | None:
     """The thesis system our enhancer reproduces (``"eb-ss"``, ``"eb-ss@1"`` -> ``"EB-SS"``)."""
     return THESIS_SYSTEMS.get(base_name(enhancer))
@@ -108,7 +113,7 @@ _SENSOR_KEYS = ("mic_gain_db", "mic_phase_deg", "mic_highpass_hz", "self_noise_d
                 "mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz")  # fmt: skip
 
 
-def _condition(row: dict) -> dict:
+def condition_params(row: dict) -> dict:
     """The row's condition parameters (its ``condition_json``), or {} when absent/unreadable."""
     try:
         return json.loads(row.get("condition_json") or "{}")
@@ -130,7 +135,7 @@ def is_thesis_condition(row: dict) -> bool:
         naz = float(row["noise_az_deg"]) % 360
     except (KeyError, TypeError, ValueError):
         return False
-    cond = _condition(row)
+    cond = condition_params(row)
     far = row.get("far_field", cond.get("far_field"))
     spacing = row.get("spacing_m", cond.get("spacing_m"))
     ideal = row.get("ideal_sensors")
