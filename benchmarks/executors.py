@@ -135,7 +135,8 @@ class DaskExecutor:
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - dask is an optional extra
             raise ExecutorError(
-                "the dask executor needs dask[distributed]: pip install 'scenesim[dask]'"
+                "the dask executor needs dask[distributed]: pip install 'dask[distributed]' "
+                "(or, in a scenesim checkout: pip install -e '.[dask]')"
             ) from exc
         self.scheduler = scheduler
         self._cluster = None

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import sqlite3
 import sys
 from pathlib import Path
 
+from benchmarks.cli.checks import corrupt_store_error, prepare_out_dir
 from scenesim.errors import ParameterError
 
 
@@ -24,7 +27,7 @@ def add_parser(subparsers) -> None:
         "write DIR/report.  Rerunning on the same --out computes only what is missing.",
     )
     run.add_argument("sweep", metavar="PRESET_OR_TOML", help="thesis, reverb, angles, smoke, or a sweep .toml file")
-    run.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (store + report)")
+    run.add_argument("--out", required=True, metavar="DIR", help="output directory (store + report)")
     run.add_argument("--executor", choices=("local", "dask"), default="local", help="where to run (default: local)")
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://10.0.0.5:8786 (with --executor dask)")
@@ -71,20 +74,22 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     sweep = load_sweep(args.sweep)
-    summary = run_sweep(
-        sweep,
-        args.out,
-        executor=args.executor,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        data_dir=args.data_dir,
-        limit=args.limit,
-        seed=args.seed,
-        retry_errors=args.retry_errors,
-        report=not args.no_report,
-    )
+    out = prepare_out_dir("--out", args.out)
+    with _store_errors(out):
+        summary = run_sweep(
+            sweep,
+            out,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            data_dir=args.data_dir,
+            limit=args.limit,
+            seed=args.seed,
+            retry_errors=args.retry_errors,
+            report=not args.no_report,
+        )
     for note in summary.warnings:
-        print(f"scenesim bench: warning: {note}", file=sys.stderr)
+        print(f"scenesim: warning: {note}", file=sys.stderr)
     print(f"scenesim bench: {sweep.name}: {summary.line()}", file=sys.stderr)
     print(f"results: {summary.store_path}")
     if summary.report_files:
@@ -100,10 +105,22 @@ def _run(args) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _store_errors(out_dir):
+    """sqlite's errors on a damaged ``results.sqlite`` as one line saying how to move it aside."""
+    from benchmarks.store import STORE_NAME
+
+    try:
+        yield
+    except sqlite3.DatabaseError as exc:
+        raise corrupt_store_error(Path(out_dir) / STORE_NAME, exc) from None
+
+
 def _report(args) -> int:
     from benchmarks.runner import write_store_report
 
-    files = write_store_report(args.dir)
+    with _store_errors(args.dir):
+        files = write_store_report(args.dir)
     for f in files:
         print(f)
     return 0

@@ -7,13 +7,20 @@ float WAV, one channel per mic), ``rir.json`` (the settings and room), and with
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
+import warnings
 
 import numpy as np
 
+from benchmarks.cli.checks import check_cli_fs, prepare_out_dir
 from scenesim.errors import ParameterError
+from scenesim.files import write_json_atomic
+
+# The default --rt60-method is only approximate; past this relative miss of the measured
+# T30 the user is told to use the calibrated method.
+RT60_WARN_REL = 0.10
+# A source closer than this to a mic makes the 1/(4 pi r) direct path blow up (NaN at r=0).
+MIN_SOURCE_MIC_DISTANCE_M = 1e-3
 
 FORMATS = ("npy", "wav", "both")
 
@@ -64,11 +71,40 @@ def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
     return int(math.ceil(c * rt60_s / r - 1))
 
 
+def _check_source_off_mics(source, mics: np.ndarray) -> None:
+    """The same rule (and words) as ``simulate``: a source at least 1 mm from every mic."""
+    dist = np.linalg.norm(np.atleast_2d(mics) - np.asarray(source, dtype=float), axis=1)
+    if np.min(dist) < MIN_SOURCE_MIC_DISTANCE_M:
+        raise ParameterError("--source", tuple(source), "a point at least 1 mm from every mic")
+
+
+def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
+    """Warn when the measured T30 misses --rt60 by more than 10 % (uncalibrated methods only)."""
+    from scenesim.rt60 import measure_rt60
+
+    if args.rt60 is None or args.rt60_method == "calibrated":
+        return
+    try:
+        t30 = float(np.mean(measure_rt60(h, fs, method="T30")))
+    except ParameterError:  # too short a RIR to fit T30: nothing to compare
+        return
+    miss = t30 / args.rt60 - 1.0
+    if abs(miss) > RT60_WARN_REL:
+        warnings.warn(
+            f"the measured T30 of this RIR is {t30:.3f} s, {100 * miss:+.0f} % off --rt60 {args.rt60:g} s "
+            f"(--rt60-method {args.rt60_method} is an approximation); use --rt60-method calibrated "
+            f"for a room whose measured T30 matches",
+            stacklevel=2,
+        )
+
+
 def run(args) -> int:
     from scenesim.geometry import DEFAULT_SPACING_M, MicPair
     from scenesim.ism import image_source_rir
     from scenesim.room import ShoeBox
 
+    check_cli_fs("--fs", args.fs)
+    out = prepare_out_dir("--out", args.out)
     absorption = None
     if args.absorption is not None:
         if len(args.absorption) not in (1, 6):
@@ -84,15 +120,17 @@ def run(args) -> int:
         mics = np.asarray(args.mic, dtype=float)
     if args.format not in FORMATS:
         raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
+    _check_source_off_mics(args.source, mics)
+    # The saved RIR depends only on the user's settings; --compare picks its own order for
+    # the comparison and must not change what is written.
     max_order = args.max_order
-    if args.compare and max_order is None:
-        max_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
     h = image_source_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
         method=args.method,
     )
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    if not np.all(np.isfinite(h)):
+        raise ParameterError("--source/--mic", tuple(args.source), "positions giving a finite RIR")
+    _warn_rt60_miss(h, args.fs, args)
     written = []
     if args.format in ("npy", "both"):
         np.save(out / "rir.npy", h)
@@ -116,21 +154,23 @@ def run(args) -> int:
         "method": args.method,
         "time_origin": "tap 0 = emission, no global delay",
     }
-    (out / "rir.json").write_text(json.dumps(meta, indent=2))
+    write_json_atomic(out / "rir.json", meta)
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
           f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
     if args.compare:
         from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
+        compare_order = max_order
+        if compare_order is None:
+            compare_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
         check = compare_with_pyroomacoustics(
-            room, args.source, mics, fs=args.fs, max_order=max_order, method=args.method
+            room, args.source, mics, fs=args.fs, max_order=compare_order, method=args.method
         )
-        numbers = check.to_dict()
-        (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
+        write_json_atomic(out / "crosscheck.json", check.to_dict())
         plot_crosscheck(check, path=out / "crosscheck.png")
         written += [out / "crosscheck.json", out / "crosscheck.png"]
-        print(f"pyroomacoustics 0.10.1 cross-check (max_order {max_order}, {check.n_images} images):")
+        print(f"pyroomacoustics 0.10.1 cross-check (max_order {compare_order}, {check.n_images} images):")
         print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
         print(f"  argmax equal        {check.argmax_equal}")
         err = check.inter_mic_delay_error_samples
