@@ -298,3 +298,34 @@ def test_output_files_are_readable_as_the_umask_says(umask, tmp_path, stereo_wav
     want = 0o666 & ~umask
     for path in [*sim.iterdir(), enh]:
         assert path.stat().st_mode & 0o777 == want, (path.name, oct(path.stat().st_mode))
+
+
+def _noise_only_data_dir(tmp_path, rng) -> Path:
+    root = tmp_path / "data"
+    (root / "noise").mkdir(parents=True)
+    (root / "speech").mkdir()
+    sf.write(root / "noise" / "wind_1.wav", 0.1 * rng.standard_normal(2 * FS), FS, subtype="FLOAT")
+    (root / "speech" / "broken.wav").write_bytes(b"RIFF not really a wav")
+    return root
+
+
+def test_explicit_data_dir_with_unusable_speech_is_an_error(tmp_path, rng, capsys):
+    root = _noise_only_data_dir(tmp_path, rng)
+    out = tmp_path / "out"
+    argv = ["bench", "run", "smoke", "--limit", "1", "--workers", "1", "--data-dir", str(root), "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"scenesim: error: no usable speech in {root}/speech" in err
+    assert "broken.wav" in err  # the skipped file is named (a warning line before the error)
+    assert not (out / "results.sqlite").exists()
+
+
+@pytest.mark.filterwarnings("ignore:skipping 1 unusable")
+def test_default_data_dir_with_unusable_speech_still_falls_back(tmp_path, rng):
+    from data_recipes import open_data
+    from data_recipes.source import DataFallbackWarning
+
+    root = _noise_only_data_dir(tmp_path, rng)
+    with pytest.warns(DataFallbackWarning, match="using the built-in artificial voice"):
+        source = open_data(root)  # $SCENESIM_DATA / library default: the fallback stays
+    assert "wind" in source.local_noise_types

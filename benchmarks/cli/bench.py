@@ -74,6 +74,10 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     sweep = load_sweep(args.sweep)
+    if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
+        from data_recipes import open_data
+
+        open_data(args.data_dir, require_speech=True)
     out = prepare_out_dir("--out", args.out)
     with _store_errors(out):
         summary = run_sweep(
