@@ -31,6 +31,8 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.executors import EXECUTORS, make_executor
+from benchmarks.progress import LineProgress
+from benchmarks.signals import interrupted
 from benchmarks.store import ResultStore, package_versions
 from benchmarks.sweep import Condition, Sweep, load_sweep
 from scenesim.errors import ConfigError, ParameterError
@@ -385,7 +387,7 @@ def run_sweep(
                 ex = make_executor(executor, workers=workers, scheduler=scheduler, preload=WORKER_PRELOAD)
                 try:
                     units = plan_units(tasks, workers=ex.workers or 1)
-                    with _progress(len(tasks), sweep.name, enabled=progress) as bar:
+                    with _progress(len(tasks), sweep.name, enabled=progress, workers=ex.workers) as bar:
                         for unit, outcome in ex.run(run_unit, units):
                             for rows in _rows_of(unit, outcome, run_id):
                                 # one transaction per condition: a kill never leaves half of one
@@ -401,9 +403,9 @@ def run_sweep(
                 finally:
                     ex.close()
             status = "finished"
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM under signals.sigterm_as_interrupt
             status = "interrupted"
-            raise
+            raise interrupted(exc, n_written=n_rows, n_stored=len(store.done_keys()), store_path=store.path) from None
         finally:
             store.finish_run(run_id, status=status, n_rows_written=n_rows, n_errors=n_errors)
 
@@ -523,9 +525,11 @@ class _NullBar:
         return False
 
 
-def _progress(total: int, name: str, *, enabled: bool):
+def _progress(total: int, name: str, *, enabled: bool, workers: int | None = None):
     if not enabled:
         return _NullBar()
+    if not sys.stderr.isatty():  # a log file: tqdm would stay silent; print lines instead
+        return LineProgress(total, name, workers=workers)
     from tqdm.auto import tqdm
 
     # disable=None: tqdm switches itself off when stderr is not a terminal.

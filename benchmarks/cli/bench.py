@@ -9,6 +9,9 @@ import sys
 from pathlib import Path
 
 from benchmarks.cli.checks import corrupt_store_error, prepare_out_dir
+from benchmarks.lock import run_lock
+from benchmarks.progress import slow_rir_warning
+from benchmarks.signals import sigterm_as_interrupt
 from scenesim.errors import ParameterError
 
 
@@ -79,7 +82,10 @@ def _run(args) -> int:
 
         open_data(args.data_dir, require_speech=True)
     out = prepare_out_dir("--out", args.out)
-    with _store_errors(out):
+    slow = slow_rir_warning(sweep.conditions()[: args.limit])
+    if slow:
+        print(f"scenesim: warning: {slow}", file=sys.stderr)
+    with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
         summary = run_sweep(
             sweep,
             out,

@@ -66,9 +66,9 @@ def main(argv: list[str] | None = None) -> int:
         where = f": {exc.filename}" if exc.filename else ""
         print(f"scenesim: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("scenesim: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:  # a sweep's RunInterrupted says what is kept and how to resume
+        print(f"scenesim: {str(exc) or 'interrupted'}", file=sys.stderr)
+        return getattr(exc, "exit_code", 130)
 
 
 if __name__ == "__main__":
