@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import time
-import traceback
 import warnings
 from collections.abc import Mapping
 from typing import Any
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import metrics as M
+from benchmarks.excinfo import exc_text as _exc_text
 from scenesim.errors import ParameterError
 
 #: Columns produced by :func:`input_metrics` (SQL types for the results store).
@@ -82,16 +82,6 @@ TRACE_MAX_POINTS = 2000
 LAG_SEARCH_S = 0.032
 #: ``|2 <s_out, n_out>| / P(s_out + n_out)`` above this makes the output SNR suspect.
 CROSS_WARN_RATIO = 0.2
-
-
-def _exc_text(exc: BaseException) -> str:
-    """One line: exception type, message and the innermost frame (a traceback summary)."""
-    text = f"{type(exc).__name__}: {exc}"
-    frames = traceback.extract_tb(exc.__traceback__)
-    if frames:
-        f = frames[-1]
-        text += f" (at {f.filename.rsplit('/', 1)[-1]}:{f.lineno} in {f.name})"
-    return text
 
 
 def _try(errors: list[str], label: str, func, *args, **kwargs):

@@ -22,7 +22,6 @@ import os
 import socket
 import sys
 import time
-import traceback
 import warnings
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -30,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.executors import EXECUTORS, make_executor
 from benchmarks.progress import LineProgress
 from benchmarks.signals import interrupted
@@ -260,12 +260,6 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
 @functools.lru_cache(maxsize=1)
 def _scenesim_version() -> str | None:
     return package_versions(("scenesim",))["scenesim"]
-
-
-def _exc_text(exc: BaseException) -> str:
-    tb = traceback.extract_tb(exc.__traceback__)
-    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name})" if tb else ""
-    return f"{type(exc).__name__}: {exc}{where}"
 
 
 # -- the driver side ---------------------------------------------------------------------
