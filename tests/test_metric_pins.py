@@ -66,3 +66,18 @@ def test_estoi_is_repeatable_and_leaves_the_global_rng_alone(pair):
     after = np.random.get_state()  # noqa: NPY002
     assert np.array_equal(before[1], after[1]) and before[2:] == after[2:]
     assert stoi_scores(degraded, reference, fs=FS)["estoi"] == first
+
+
+def test_wideband_pesq_labelled_on_speech_upsampled_from_8k(pair, recwarn):
+    from scipy.signal import resample_poly
+
+    from benchmarks.metrics import NarrowbandWarning, is_narrowband
+
+    reference, degraded = pair
+    up_ref = resample_poly(resample_poly(reference, 1, 2), 2, 1)  # 16 k -> 8 k -> 16 k
+    up_deg = resample_poly(resample_poly(degraded, 1, 2), 2, 1)
+    assert not is_narrowband(reference, FS) and is_narrowband(up_ref, FS)
+    with pytest.warns(NarrowbandWarning, match="narrow-band reference"):
+        pesq_scores(up_ref, up_deg, fs=FS)
+    pesq_scores(reference, degraded, fs=FS)  # the wide-band original: no label
+    assert not [w for w in recwarn if issubclass(w.category, NarrowbandWarning)]
