@@ -329,3 +329,12 @@ def test_default_data_dir_with_unusable_speech_still_falls_back(tmp_path, rng):
     with pytest.warns(DataFallbackWarning, match="using the built-in artificial voice"):
         source = open_data(root)  # $SCENESIM_DATA / library default: the fallback stays
     assert "wind" in source.local_noise_types
+
+
+def test_simulate_source_on_a_mic_names_the_distance_option(tmp_path, capsys):
+    # Near field, azimuth 0: the front mic sits at +spacing/2 = 10.7 mm from the pair centre.
+    argv = ["simulate", "--duration-s", "0.2", "--near-field", "--speech-az", "0", "--distance-m", "0.0107",
+            "--out", str(tmp_path)]
+    assert main(argv) == 2
+    _one_error_line(capsys, "--distance-m=0.0107", ">= 1 mm from every mic")
+    assert not (tmp_path / "mixture.wav").exists()

@@ -191,11 +191,14 @@ def build_scene(args) -> Scene:
     except ParameterError as exc:
         if exc.name.endswith("position_m"):  # a source placed outside the room / on a mic
             which, az = ("speech", args.speech_az) if exc.name.startswith("speech") else ("noise", args.noise_az)
-            where = ", ".join(f"{v:.2f}" for v in exc.value) if isinstance(exc.value, tuple) else exc.value
+            try:
+                where = "; the {} source would be at ({})".format(
+                    which, ", ".join(f"{float(v):.3f}" for v in exc.value))
+            except (TypeError, ValueError):  # no position to show
+                where = ""
             raise ParameterError(
                 "--distance-m", args.distance_m,
-                f"a distance (with --{which}-az {az:g}) giving {exc.allowed}; the {which} source "
-                f"would be at ({where})",
+                f"a distance (with --{which}-az {az:g}) giving {exc.allowed}{where}",
             ) from None
         option = _OPTION_OF.get(exc.name.rsplit(".", 1)[-1])
         if option is None:
