@@ -338,3 +338,26 @@ def test_simulate_source_on_a_mic_names_the_distance_option(tmp_path, capsys):
     assert main(argv) == 2
     _one_error_line(capsys, "--distance-m=0.0107", ">= 1 mm from every mic")
     assert not (tmp_path / "mixture.wav").exists()
+
+
+def test_rir_refuses_to_write_a_non_finite_rir(tmp_path, monkeypatch, capsys):
+    # Defence in depth behind the 1 mm rule: whatever makes the renderer return NaN, no file.
+    import scenesim.ism
+
+    def nan_rir(*args, **kwargs):
+        return np.full((2, 100), np.nan)
+
+    monkeypatch.setattr(scenesim.ism, "image_source_rir", nan_rir)
+    assert main([*RIR_ROOM, *PAIR, "--source", "1", "1", "1", "--out", str(tmp_path)]) == 2
+    _one_error_line(capsys, "a finite RIR")
+    assert not (tmp_path / "rir.npy").exists() and not (tmp_path / "rir.json").exists()
+
+
+def test_read_audio_says_no_such_file_and_is_a_directory(tmp_path):
+    from scenesim.audio import read_audio
+    from scenesim.errors import DataError
+
+    with pytest.raises(DataError, match=f"^no such file: {tmp_path / 'nope.wav'}$"):
+        read_audio(tmp_path / "nope.wav")
+    with pytest.raises(DataError, match="is a directory, not an audio file"):
+        read_audio(tmp_path)

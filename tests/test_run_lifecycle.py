@@ -197,3 +197,22 @@ def test_kill_9_leaves_no_orphan_processes(tmp_path):
     proc.kill()
     proc.communicate(timeout=60)
     assert not _gone_within(kids, 10.0), "pool processes outlived a killed run"
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGALRM"), reason="needs SIGALRM")
+def test_interrupt_terminates_busy_workers_instead_of_waiting_for_them():
+    from benchmarks.executors import LocalExecutor
+
+    ex = LocalExecutor(workers=1)
+    old = signal.signal(signal.SIGALRM, signal.default_int_handler)  # SIGALRM -> KeyboardInterrupt
+    try:
+        signal.alarm(1)
+        with pytest.raises(KeyboardInterrupt):
+            for _ in ex.run(time.sleep, [60.0]):  # a unit that would take a minute
+                pass
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    t0 = time.monotonic()
+    ex.close()
+    assert time.monotonic() - t0 < 10.0, "close() waited for the busy worker"
