@@ -361,3 +361,19 @@ def test_read_audio_says_no_such_file_and_is_a_directory(tmp_path):
         read_audio(tmp_path / "nope.wav")
     with pytest.raises(DataError, match="is a directory, not an audio file"):
         read_audio(tmp_path)
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--length", "-1"], "--length=-1.0"),
+    (["--max-order", "-1"], "--max-order=-1"),
+    (["--source", "9", "1", "1"], "--source=(9.0, 1.0, 1.0)"),
+])
+def test_rir_errors_name_the_option_typed(args, option, tmp_path, capsys):
+    argv = [*RIR_ROOM, *PAIR, "--source", "1", "1", "1", "--out", str(tmp_path), *args]
+    assert main(argv) == 2
+    _one_error_line(capsys, f"Parameter {option} is invalid")
+
+
+def test_enhance_output_without_audio_extension_fails_before_processing(tmp_path, stereo_wav, capsys):
+    assert main(["enhance", str(stereo_wav), str(tmp_path / "out.txt"), "-e", "passthrough"]) == 2
+    _one_error_line(capsys, "Parameter OUT=", "a file name ending in .wav")

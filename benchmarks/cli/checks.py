@@ -7,6 +7,7 @@ the user typed and the way out, so ``main`` prints one ``scenesim: error:`` line
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sqlite3
@@ -107,7 +108,7 @@ def check_out_file(option: str, path) -> Path:
         raise ParameterError(
             option, str(path), f"a file in a directory that can be created ({_why(exc)}); choose another {option}"
         ) from None
-    _check_writable_dir(option, parent)
+    _check_writable_dir(option, parent, typed=path)
     return path
 
 
@@ -127,3 +128,19 @@ def corrupt_store_error(store_path: Path, exc: sqlite3.DatabaseError) -> DataErr
         f"the results store {store_path} is corrupt or unreadable ({exc}); nothing was written. "
         f"Move it aside (mv {store_path} {store_path}.corrupt) and rerun to start a new store"
     )
+
+
+@contextlib.contextmanager
+def options_named(names: dict[str, str]):
+    """Re-raise a ParameterError about library parameter ``k`` as one about option ``names[k]``.
+
+    >>> with options_named({"length_s": "--length"}):  # doctest: +SKIP
+    ...     image_source_rir(..., length_s=-1)         # "Parameter --length=-1.0 is invalid..."
+    """
+    try:
+        yield
+    except ParameterError as exc:
+        option = names.get(exc.name)
+        if option is None:
+            raise
+        raise ParameterError(option, exc.value, exc.allowed) from None

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file
+from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file, options_named
 from enhancers.registry import get, make, with_geometry
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
@@ -38,7 +38,7 @@ def add_parser(subparsers):
         ),
     )
     p.add_argument("input", type=Path, metavar="IN", help="input audio (channel 0 = front/reference mic)")
-    p.add_argument("output", type=Path, metavar="OUT", help="output WAV (float samples)")
+    p.add_argument("output", metavar="OUT", help="output WAV (float samples)")
     p.add_argument("--enhancer", "-e", required=True, help="registry name, e.g. eb, ss, eb-ss, das, eb@1")
     p.add_argument(
         "--param", "-p", action="append", default=[], metavar="K=V",
@@ -87,7 +87,11 @@ def _suggest_channels(n_in: int) -> str:
 
 def run(args) -> int:
     check_input_file("IN", args.input)
-    check_out_file("OUT", args.output)
+    args.output = check_out_file("OUT", args.output)
+    import soundfile as sf
+
+    if args.output.suffix[1:].upper() not in sf.available_formats():  # before the work, not after
+        raise ParameterError("OUT", str(args.output), "a file name ending in .wav, .flac or another soundfile format")
     if args.trace is not None:
         check_out_file("--trace", args.trace)
     check_cli_fs("--fs", args.fs)
@@ -99,11 +103,12 @@ def run(args) -> int:
     if args.spacing_m is not None or args.c_mps is not None:
         if tags.needs_geometry:
             p = enhancer.params
-            enhancer = with_geometry(
-                enhancer,
-                spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
-                c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
-            )
+            with options_named({"spacing_m": "--spacing-m", "c_mps": "--c-mps"}):
+                enhancer = with_geometry(
+                    enhancer,
+                    spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
+                    c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
+                )
         else:
             notes.append(f"{enhancer.name} needs no geometry: --spacing-m/--c-mps ignored")
     elif tags.needs_geometry:

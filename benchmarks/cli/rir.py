@@ -12,13 +12,19 @@ import warnings
 
 import numpy as np
 
-from benchmarks.cli.checks import check_cli_fs, prepare_out_dir
+from benchmarks.cli.checks import check_cli_fs, options_named, prepare_out_dir
 from scenesim.errors import ParameterError
 from scenesim.files import write_json_atomic
 
 # The default --rt60-method is only approximate; past this relative miss of the measured
 # T30 the user is told to use the calibrated method.
 RT60_WARN_REL = 0.10
+# Library parameter names -> the options that set them (errors name what was typed).
+_OPTIONS = {
+    "dims_m": "--dims", "absorption": "--absorption", "rt60_s": "--rt60", "source_m": "--source",
+    "mics_m": "--mic", "length_s": "--length", "max_order": "--max-order", "method": "--method",
+    "spacing_m": "--spacing", "center_m": "--pair-center",
+}
 # A source closer than this to a mic makes the 1/(4 pi r) direct path blow up (NaN at r=0).
 MIN_SOURCE_MIC_DISTANCE_M = 1e-3
 
@@ -108,15 +114,17 @@ def run(args) -> int:
     absorption = None
     if args.absorption is not None:
         if len(args.absorption) not in (1, 6):
-            raise ParameterError("absorption", args.absorption, "1 or 6 values")
+            raise ParameterError("--absorption", args.absorption, "1 or 6 values")
         absorption = args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
-    room = ShoeBox(tuple(args.dims), absorption, rt60_s=args.rt60, rt60_method=args.rt60_method)
+    with options_named(_OPTIONS):
+        room = ShoeBox(tuple(args.dims), absorption, rt60_s=args.rt60, rt60_method=args.rt60_method)
     if args.pair_center is not None:
         spacing = DEFAULT_SPACING_M if args.spacing is None else args.spacing
-        mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
+        with options_named(_OPTIONS):
+            mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
     else:
         if args.spacing is not None:
-            raise ParameterError("spacing", args.spacing, "--spacing only together with --pair-center")
+            raise ParameterError("--spacing", args.spacing, "--spacing only together with --pair-center")
         mics = np.asarray(args.mic, dtype=float)
     if args.format not in FORMATS:
         raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
@@ -124,10 +132,11 @@ def run(args) -> int:
     # The saved RIR depends only on the user's settings; --compare picks its own order for
     # the comparison and must not change what is written.
     max_order = args.max_order
-    h = image_source_rir(
-        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-        method=args.method,
-    )
+    with options_named(_OPTIONS):
+        h = image_source_rir(
+            room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+            method=args.method,
+        )
     if not np.all(np.isfinite(h)):
         raise ParameterError("--source/--mic", tuple(args.source), "positions giving a finite RIR")
     _warn_rt60_miss(h, args.fs, args)
