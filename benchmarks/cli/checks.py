@@ -140,7 +140,9 @@ def options_named(names: dict[str, str]):
     try:
         yield
     except ParameterError as exc:
-        option = names.get(exc.name)
+        base, bracket, index = exc.name.partition("[")  # "mics_m[0]" -> "--mic" (first given)
+        option = names.get(base)
         if option is None:
             raise
-        raise ParameterError(option, exc.value, exc.allowed) from None
+        which = f" #{int(index.rstrip(']')) + 1}" if bracket and index.rstrip("]").isdigit() else ""
+        raise ParameterError(option + which, exc.value, exc.allowed) from None
