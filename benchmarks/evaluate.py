@@ -30,17 +30,29 @@ import numpy as np
 
 from benchmarks import metrics as M
 from benchmarks.excinfo import exc_text as _exc_text
+from benchmarks.reverb_metrics import (
+    REVERB_INPUT_COLUMNS,
+    REVERB_OUTPUT_COLUMNS,
+    input_columns,
+    output_columns,
+)
 from scenesim.errors import ParameterError
 
 #: Columns produced by :func:`input_metrics` (SQL types for the results store).
 INPUT_COLUMNS: dict[str, str] = {
     "pesq_nb_in": "REAL",
+    "pesq_nb_raw_in": "REAL",
     "pesq_wb_in": "REAL",
     "stoi_in": "REAL",
     "estoi_in": "REAL",
     "segsnr_in_db": "REAL",
     "si_sdr_in_db": "REAL",
     "snr_in_db_measured": "REAL",
+    "snr_in_band_db": "REAL",
+    "inband_lo_hz": "REAL",
+    "inband_hi_hz": "REAL",
+    "self_snr_in_db": "REAL",
+    **REVERB_INPUT_COLUMNS,  # from the speech parts (benchmarks.reverb_metrics), None without them
     "input_error": "TEXT",
 }
 
@@ -55,10 +67,17 @@ ROW_COLUMNS: dict[str, str] = {
     "snr_cross_ratio": "REAL",
     "snr_out_db": "REAL",
     "snr_i_db": "REAL",
+    "snr_out_hagerman_db": "REAL",
+    "snr_i_hagerman_db": "REAL",
+    "snr_out_band_db": "REAL",
+    "snr_i_band_db": "REAL",
+    "snr_out_limit_db": "REAL",
     **{k: v for k, v in INPUT_COLUMNS.items() if k != "input_error"},
     "pesq_nb_out": "REAL",
+    "pesq_nb_raw_out": "REAL",
     "pesq_wb_out": "REAL",
     "pesq_nb_i": "REAL",
+    "pesq_nb_raw_i": "REAL",
     "pesq_wb_i": "REAL",
     "stoi_out": "REAL",
     "estoi_out": "REAL",
@@ -74,6 +93,7 @@ ROW_COLUMNS: dict[str, str] = {
     "process_s": "REAL",
     "metrics_s": "REAL",
     "trace_json": "TEXT",
+    **REVERB_OUTPUT_COLUMNS,
 }
 
 #: At most this many points of each beta trajectory go into ``trace_json``.
@@ -82,6 +102,21 @@ TRACE_MAX_POINTS = 2000
 LAG_SEARCH_S = 0.032
 #: ``|2 <s_out, n_out>| / P(s_out + n_out)`` above this makes the output SNR suspect.
 CROSS_WARN_RATIO = 0.2
+#: The band of the in-band SNR columns when the condition sets none: where speech lives
+#: (a 0 dB wind whose power lies below 100 Hz is not a 0 dB condition for speech).
+INBAND_HZ = (100.0, 7000.0)
+#: Array gain of two mics for spatially white noise, 10 log10(2) dB: no linear 2-mic
+#: processing raises the speech-to-self-noise ratio by more (white-noise gain <= M).
+SELF_NOISE_ARRAY_GAIN_DB = 10.0 * np.log10(2.0)
+
+
+def inband_hz(rendered) -> tuple[float, float]:
+    """The band of the in-band SNR columns: the scene's ``snr_band_hz`` or :data:`INBAND_HZ`
+    (its top edge capped at 7/16 of fs, 3.5 kHz at 8 kHz)."""
+    band = getattr(rendered.scene, "snr_band_hz", None)
+    if band is not None:
+        return float(band[0]), float(band[1])
+    return INBAND_HZ[0], min(INBAND_HZ[1], 7.0 * int(rendered.fs) / 16.0)
 
 
 def _try(errors: list[str], label: str, func, *args, **kwargs):
@@ -103,8 +138,8 @@ def _ref_row(rendered) -> np.ndarray:
 
 def _quality_names(suffix: str) -> tuple[str, ...]:
     """Column names :func:`_quality` fills for ``suffix`` ("in" or "out"), in a fixed order."""
-    return (f"pesq_nb_{suffix}", f"pesq_wb_{suffix}", f"stoi_{suffix}", f"estoi_{suffix}",
-            f"segsnr_{suffix}_db", f"si_sdr_{suffix}_db")
+    return (f"pesq_nb_{suffix}", f"pesq_nb_raw_{suffix}", f"pesq_wb_{suffix}", f"stoi_{suffix}",
+            f"estoi_{suffix}", f"segsnr_{suffix}_db", f"si_sdr_{suffix}_db")
 
 
 def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: list[str]) -> dict:
@@ -112,6 +147,8 @@ def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: lis
     out: dict[str, Any] = {}
     p = _try(errors, f"pesq_{suffix}", M.pesq_scores, ref, est, fs=fs) or {}
     out[f"pesq_nb_{suffix}"] = p.get("nb")
+    # The raw P.862 score (the scale the thesis quotes), from the package's P.862.1 MOS-LQO.
+    out[f"pesq_nb_raw_{suffix}"] = None if p.get("nb") is None else M.pesq_raw_from_mos_lqo(p["nb"])
     out[f"pesq_wb_{suffix}"] = p.get("wb")
     s = _try(errors, f"stoi_{suffix}", M.stoi_scores, ref, est, fs=fs) or {}
     out[f"stoi_{suffix}"] = s.get("stoi")
@@ -123,7 +160,7 @@ def _quality(ref: np.ndarray, est: np.ndarray, fs: int, suffix: str, errors: lis
     return out
 
 
-def input_metrics(rendered) -> dict[str, Any]:
+def input_metrics(rendered, *, speech_parts=None, reference: str = "direct") -> dict[str, Any]:
     """Metrics of the unprocessed mixture at the reference mic (channel 0); once per mixture.
 
     Parameters
@@ -138,21 +175,38 @@ def input_metrics(rendered) -> dict[str, Any]:
         ``pesq_nb_in, pesq_wb_in, stoi_in, estoi_in, segsnr_in_db, si_sdr_in_db`` (mixture
         channel 0 vs reference), ``snr_in_db_measured`` (power of speech image channel 0
         over noise image channel 0, whole signal) and ``input_error`` (text or None).
+        With ``speech_parts`` (:func:`scenesim.reverb_parts.speech_parts`) and the scene's
+        ``reference``: the reverberation columns ``sinr_in_db, drr_in_db, c50_in_db, srmr_in,
+        metric_target, early_window_ms`` (:mod:`benchmarks.reverb_metrics`), else None.
     """
     errors: list[str] = []
     fs = int(rendered.fs)
     ref = _ref_row(rendered)
     mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0]
     row = _quality(ref, mix0[: ref.size], fs, "in", errors)
-    row["snr_in_db_measured"] = _try(
-        errors,
-        "snr_in",
-        M.snr_db,
-        np.asarray(rendered.speech_image, dtype=np.float64)[0],
-        np.asarray(rendered.noise_image, dtype=np.float64)[0],
-    )
+    s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0]
+    n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0]
+    row["snr_in_db_measured"] = _try(errors, "snr_in", M.snr_db, s0, n0)
+    band = inband_hz(rendered)
+    row["inband_lo_hz"], row["inband_hi_hz"] = band
+    row["snr_in_band_db"] = _try(errors, "snr_in_band", _band_snr_db, s0, n0, int(rendered.fs), band)
+    self_noise = getattr(rendered, "self_noise_image", None)
+    if self_noise is not None and np.any(self_noise):
+        row["self_snr_in_db"] = _try(errors, "self_snr_in", M.snr_db, s0, np.asarray(self_noise)[0])
+    else:
+        row["self_snr_in_db"] = None
+    row.update(dict.fromkeys(REVERB_INPUT_COLUMNS))
+    if speech_parts is not None:
+        row.update(_try(errors, "reverb_in", input_columns, rendered, speech_parts, reference=reference) or {})
     row["input_error"] = "; ".join(errors) or None
     return row
+
+
+def _band_snr_db(s, n, fs: int, band) -> float:
+    """SNR in dB of ``s`` over ``n`` within ``band`` (Hz), an ideal band-pass on both."""
+    from scenesim.mixing import bandlimit
+
+    return M.snr_db(bandlimit(s, fs, band), bandlimit(n, fs, band))
 
 
 _input_metrics = input_metrics  # evaluate_enhancer's keyword of the same name shadows it
@@ -204,6 +258,17 @@ def _components(enhancer, result, x, s, n, fs, notes: list[str]):
     return 0.5 * (y1 + y2), 0.5 * (y1 - y2), "phase-inversion"
 
 
+def _hagerman_snr_out_db(enhancer, result, signals, fs, latency, ref, method, snr_out_db):
+    """Output SNR by phase inversion: ``y1 = f(s + n)`` (the output), ``y2 = f(s - n)``."""
+    if method == "phase-inversion":
+        return snr_out_db  # already measured this way
+    x, s, n, y = signals
+    y2 = _check_output(enhancer.process(s - n, fs).output, x.shape[1], "output(s - n)")
+    s_al, _ = M.align(0.5 * (y[0] + y2[0]), ref, latency_samples=latency)
+    n_al, _ = M.align(0.5 * (y[0] - y2[0]), ref, latency_samples=latency)
+    return M.snr_db(s_al, n_al)
+
+
 def _trace_json(trace: Mapping[str, Any], n_samples: int, fs: int) -> str | None:
     """Beta trajectories (keys ending in 'beta') as compact JSON, block-mean decimated.
 
@@ -240,6 +305,7 @@ def evaluate_enhancer(
     *,
     input_metrics: Mapping[str, Any] | None = None,
     latency_tolerance_samples: int | None = None,
+    speech_parts=None,
 ) -> dict[str, Any]:
     """Run ``enhancer`` on one rendered scene and measure it; returns one results row (dict).
 
@@ -251,6 +317,17 @@ def evaluate_enhancer(
         ``mixture, speech_image, noise_image (2, n)``, ``reference (1, n)``, ``fs``.
     input_metrics : mapping, optional
         The result of :func:`input_metrics` for this mixture (computed here if omitted).
+        In-band SNR (``snr_*_band_db``): the same, measured in ``inband_lo_hz..inband_hi_hz``.
+        ``snr_i_hagerman_db``: the SNR-I by phase inversion (Hagerman & Olofsson 2004) beside
+        the replay one, for every enhancer (equal to ``snr_i_db`` for black boxes, whose only
+        SNR is that); adaptive and non-linear systems make the two differ.
+        ``snr_out_limit_db``: with sensor self-noise, the speech-to-self-noise ratio at the
+        reference mic plus the 2-mic white-noise array gain (3 dB): the highest output SNR a
+        linear two-mic system can reach; a higher ``snr_out_db`` comes from time-varying gains
+        (or is an error) and the report flags it.
+    speech_parts : scenesim.reverb_parts.SpeechParts, optional
+        The direct / early / late speech images: adds the SINR / DRR / C50 / SRMR output
+        columns (:mod:`benchmarks.reverb_metrics`; the input ones come in ``input_metrics``).
     latency_tolerance_samples : int, optional
         Allowed difference between the declared latency and the cross-correlation lag of
         the speech component of the output against the reference before ``latency_check``
@@ -312,6 +389,11 @@ def evaluate_enhancer(
         )
     except Exception as exc:  # a bug in measuring must not crash the sweep
         errors.append(f"evaluation: {_exc_text(exc)}")
+    if speech_parts is not None:
+        try:
+            row.update(output_columns(enhancer, result, rendered, speech_parts, channels=x.shape[0], latency=latency, srmr_in=row.get("srmr_in")))
+        except Exception as exc:
+            errors.append(f"reverb metrics: {_exc_text(exc)}")
     row["metrics_s"] = time.perf_counter() - t0
     row["error"] = "; ".join(errors) or None
     return row
@@ -341,6 +423,17 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row["snr_out_db"] = _try(errors, "snr_out", M.snr_db, s_al, n_al)
         snr_in = _try(errors, "snr_in", M.snr_db, s0[:m], n0[:m])
         row["snr_i_db"] = _delta(row["snr_out_db"], snr_in)
+        band = inband_hz(rendered)
+        row["snr_out_band_db"] = _try(errors, "snr_out_band", _band_snr_db, s_al, n_al, fs, band)
+        band_in = _try(errors, "snr_in_band", _band_snr_db, s0[:m], n0[:m], fs, band)
+        row["snr_i_band_db"] = _delta(row["snr_out_band_db"], band_in)
+        hag = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"])
+        row["snr_out_hagerman_db"] = hag
+        row["snr_i_hagerman_db"] = _delta(hag, snr_in)
+        self_noise = getattr(rendered, "self_noise_image", None)
+        if self_noise is not None and np.any(self_noise):
+            limit = _try(errors, "snr_out_limit", M.snr_db, s0[:m], np.asarray(self_noise)[0][:m])
+            row["snr_out_limit_db"] = None if limit is None else limit + SELF_NOISE_ARRAY_GAIN_DB
         # Independent speech and noise stay nearly uncorrelated through a fixed or slowly
         # varying filter.  A large cross term means the components were scaled up where
         # they cancel (e.g. a gain > 1 on bins where |S + N| << |S|, |N|); their powers,
@@ -384,7 +477,7 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row.update(zip(_quality_names("out"), (row[k] for k in _quality_names("in"))))
     else:
         row.update(_quality(ref_al, y_al, fs, "out", errors))
-    for name in ("pesq_nb", "pesq_wb", "stoi", "estoi"):
+    for name in ("pesq_nb", "pesq_nb_raw", "pesq_wb", "stoi", "estoi"):
         row[f"{name}_i"] = _delta(row[f"{name}_out"], row[f"{name}_in"])
     row["segsnr_i_db"] = _delta(row["segsnr_out_db"], row["segsnr_in_db"])
     row["si_sdr_i_db"] = _delta(row["si_sdr_out_db"], row["si_sdr_in_db"])

@@ -24,7 +24,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after selecting the headless backend)
 
 from benchmarks import thesis_reference as T  # noqa: E402
-from benchmarks.report_tables import aggregate, distinct, modal, num, sweep_slices  # noqa: E402
+from benchmarks.report_tables import (  # noqa: E402
+    aggregate,
+    aggregate_over_seeds,
+    distinct,
+    modal,
+    num,
+    sweep_slices,
+)
 
 #: Preferred fixed values of the sweeps (the thesis geometry) when several qualify.
 RT60_FIXED = ("speech_az_deg", "noise_az_deg")
@@ -102,7 +109,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 ax1,
                 xs,
                 [a["snr_i_db"] for a in agg],
-                [a["snr_i_db_std"] for a in agg],
+                [a["snr_i_db_ci95"] for a in agg],
                 color=c,
                 ls="-",
                 marker="o",
@@ -111,18 +118,18 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             _errorbar(
                 ax2,
                 xs,
-                [a["pesq_nb_out"] for a in agg],
-                [a["pesq_nb_out_std"] for a in agg],
+                [a.get("pesq_nb_raw_out") for a in agg],
+                [a.get("pesq_nb_raw_out_ci95") for a in agg],
                 color=c,
                 ls="-",
                 marker="o",
-                label=f"{name} (nb)",
+                label=f"{name} (raw P.862)",
             )
             _errorbar(
                 ax2,
                 xs,
                 [a["pesq_wb_out"] for a in agg],
-                [a["pesq_wb_out_std"] for a in agg],
+                [a["pesq_wb_out_ci95"] for a in agg],
                 color=c,
                 ls=":",
                 marker="s",
@@ -151,12 +158,13 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                     )
         ax1.set(xlabel="input SNR (dB)", ylabel="SNR improvement (dB)", title=f"SNR-I, {noise}")
         ax2.set(
-            xlabel="input SNR (dB)", ylabel="output PESQ (MOS-LQO)", title=f"output PESQ, {noise}"
+            xlabel="input SNR (dB)", ylabel="output PESQ (raw P.862; wb dotted)", title=f"output PESQ, {noise}"
         )
         ax1.grid(True, alpha=0.3)
         ax2.grid(True, alpha=0.3)
         # One legend outside, from the PESQ panel (it has every line style).
-        ax2.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+        if ax2.get_legend_handles_labels()[0]:
+            ax2.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
         where = "thesis geometry" if at_thesis else _geo_text(geo)
         fig.suptitle(f"{noise}: ours solid, thesis dashed ({where})", fontsize=10)
         fig.tight_layout()
@@ -186,13 +194,13 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     for j, noise in enumerate(noises):
         for name in names:
             part = [r for r in sel if r["noise"] == noise and r["enhancer"] == name]
-            agg = aggregate(part, ("rt60_s",))
+            agg = aggregate_over_seeds(part, ("rt60_s",))
             xs = [a["rt60_s"] for a in agg]
             _errorbar(
                 axes[0, j],
                 xs,
                 [a["snr_i_db"] for a in agg],
-                [a["snr_i_db_std"] for a in agg],
+                [a["snr_i_db_ci95"] for a in agg],
                 color=colours[name],
                 marker="o",
                 label=name,
@@ -201,7 +209,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
                 axes[1, j],
                 xs,
                 [a["pesq_nb_out"] for a in agg],
-                [a["pesq_nb_out_std"] for a in agg],
+                [a["pesq_nb_out_ci95"] for a in agg],
                 color=colours[name],
                 marker="o",
                 label=name,
@@ -212,7 +220,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7)
     fig.suptitle(
-        f"vs RT60 (speech {angles[0]:g}°, noise {angles[1]:g}°; mean ± std over seeds at "
+        f"vs RT60 (speech {angles[0]:g}°, noise {angles[1]:g}°; mean ± 95 % CI over seeds at "
         f"input SNR {', '.join(f'{s:g}' for s in snrs)} dB)",
         fontsize=10,
     )
@@ -252,7 +260,7 @@ def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     for k, (sel, base, snrs, noise) in enumerate(panels):
         ax = axes[k // n_cols, k % n_cols]
         for name in names:
-            agg = aggregate(
+            agg = aggregate_over_seeds(
                 [r for r in sel if r["noise"] == noise and r["enhancer"] == name], ("noise_az_deg",)
             )
             pts = sorted(

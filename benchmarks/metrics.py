@@ -211,6 +211,35 @@ def pesq_scores(reference, degraded, *, fs) -> dict[str, float | None]:
     return {"nb": nb, "wb": wb}
 
 
+#: ITU-T P.862.1 mapping constants: MOS-LQO = 0.999 + 4 / (1 + exp(-1.4945 x + 4.6607)).
+P8621_SLOPE = 1.4945
+P8621_OFFSET = 4.6607
+#: Range of raw P.862 scores (the scale the thesis' text describes).
+P862_RAW_RANGE = (-0.5, 4.5)
+
+
+def pesq_raw_from_mos_lqo(mos_lqo: float) -> float:
+    """Raw ITU-T P.862 score from the ``pesq`` package's narrow-band MOS-LQO (P.862.1 inverted).
+
+    The package's ``"nb"`` score is ``y = 0.999 + 4 / (1 + exp(-1.4945 x + 4.6607))`` of the
+    raw P.862 score ``x`` (algorithms.md 4b), so
+    ``x = (4.6607 - ln(4 / (y - 0.999) - 1)) / 1.4945``, clipped to the raw range
+    [-0.5, 4.5] (the mapping's ends, MOS-LQO 1.016..4.549, are where it saturates).
+
+    >>> round(pesq_raw_from_mos_lqo(0.999 + 4 / (1 + np.exp(-1.4945 * 3.0 + 4.6607))), 9)
+    3.0
+    """
+    y = float(mos_lqo)
+    if not math.isfinite(y):
+        raise ParameterError("mos_lqo", mos_lqo, "a finite MOS-LQO score")
+    lo, hi = P862_RAW_RANGE
+    if y <= 0.999 + 4.0 / (1.0 + math.exp(-P8621_SLOPE * lo + P8621_OFFSET)):
+        return lo
+    if y >= 0.999 + 4.0 / (1.0 + math.exp(-P8621_SLOPE * hi + P8621_OFFSET)):
+        return hi
+    return (P8621_OFFSET - math.log(4.0 / (y - 0.999) - 1.0)) / P8621_SLOPE
+
+
 class NarrowbandWarning(UserWarning):
     """Wide-band PESQ was computed on a reference with no content above 4.5 kHz."""
 

@@ -27,9 +27,17 @@ METRIC_FIELDS: tuple[str, ...] = (
     "snr_in_db_measured",
     "snr_out_db",
     "snr_i_db",
+    "snr_i_hagerman_db",
+    "snr_in_band_db",
+    "snr_out_band_db",
+    "snr_i_band_db",
+    "snr_out_limit_db",
     "pesq_nb_in",
     "pesq_nb_out",
     "pesq_nb_i",
+    "pesq_nb_raw_in",
+    "pesq_nb_raw_out",
+    "pesq_nb_raw_i",
     "pesq_wb_in",
     "pesq_wb_out",
     "pesq_wb_i",
@@ -45,6 +53,7 @@ METRIC_FIELDS: tuple[str, ...] = (
 
 _DERIVED = {
     "pesq_nb_i": ("pesq_nb_out", "pesq_nb_in"),
+    "pesq_nb_raw_i": ("pesq_nb_raw_out", "pesq_nb_raw_in"),
     "pesq_wb_i": ("pesq_wb_out", "pesq_wb_in"),
 }
 
@@ -88,6 +97,21 @@ def mean_std(values: Iterable[Any]) -> tuple[float | None, float | None, int]:
     return m, s, len(xs)
 
 
+def ci95_halfwidth(std: float | None, n: int) -> float | None:
+    """Half-width of the two-sided 95 % Student-t confidence interval of a mean of ``n`` values.
+
+    ``t_{0.975, n-1} * std / sqrt(n)``; None for fewer than 2 values.
+
+    >>> round(ci95_halfwidth(1.0, 5), 4)
+    1.2417
+    """
+    if std is None or n < 2:
+        return None
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, n - 1) * std / math.sqrt(n))
+
+
 def _sort_key(value):
     return (0, value, "") if isinstance(value, (int, float)) else (1, 0.0, str(value))
 
@@ -97,9 +121,12 @@ def aggregate(
     by: Sequence[str],
     fields: Sequence[str] = METRIC_FIELDS,
 ) -> list[dict[str, Any]]:
-    """Group ``rows`` by the ``by`` columns; per field ``<f>`` (mean), ``<f>_std``, plus ``n``.
+    """Group ``rows`` by the ``by`` columns; per field ``<f>`` (mean), ``<f>_std``, ``<f>_ci95``
+    (half-width of the 95 % t interval of the mean), plus ``n``.
 
-    ``n`` is the number of rows in the group (seeds x talkers); groups are sorted by key.
+    ``n`` is the number of rows in the group: with ``by`` every condition key but the seed,
+    the spread is over seeds (each seed draws its talker, excerpts and, with tolerances, its
+    phone).  Groups are sorted by key.
     """
     groups: dict[tuple, list[Mapping[str, Any]]] = {}
     for row in rows:
@@ -110,11 +137,27 @@ def aggregate(
         rec: dict[str, Any] = dict(zip(by, key))
         rec["n"] = len(members)
         for f in fields:
-            m, s, _ = mean_std(r.get(f) for r in members)
+            m, s, k = mean_std(r.get(f) for r in members)
             rec[f] = m
             rec[f + "_std"] = s
+            rec[f + "_ci95"] = ci95_halfwidth(s, k)
         out.append(rec)
     return out
+
+
+def aggregate_over_seeds(
+    rows: Sequence[Mapping[str, Any]],
+    by: Sequence[str],
+    fields: Sequence[str] = METRIC_FIELDS,
+) -> list[dict[str, Any]]:
+    """Like :func:`aggregate`, but the spread is over seeds only.
+
+    First each seed's mean over everything not in ``by`` (e.g. the input SNRs of a sweep),
+    then mean, ``_std`` and ``_ci95`` of those per-seed means; ``n`` is the number of seeds.
+    A statistic is never taken over input SNRs or other conditions.
+    """
+    per_seed = aggregate(rows, (*by, "seed"), fields)
+    return aggregate(per_seed, by, fields)
 
 
 def distinct(rows: Iterable[Mapping[str, Any]], key: str) -> list:

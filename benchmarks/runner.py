@@ -16,6 +16,7 @@ rerun computes only what is missing.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import os
@@ -35,6 +36,7 @@ from benchmarks.progress import LineProgress
 from benchmarks.signals import interrupted
 from benchmarks.store import ResultStore, package_versions
 from benchmarks.sweep import Condition, Sweep, load_sweep
+from benchmarks.versioning import check_version
 from scenesim.errors import ConfigError, ParameterError
 from scenesim.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_choice
@@ -55,6 +57,9 @@ _CONDITION_COLUMNS = (
     "noise_field",
     "fs",
     "duration_s",
+    "far_field",
+    "spacing_m",
+    "wind_speed_mps",
 )
 
 
@@ -134,6 +139,41 @@ def _dataset(data_dir: str | None, fs: int):
     return _DATASETS[key]
 
 
+def build_sensors(cond: Condition):
+    """The condition's sensors: nominal mismatch and self-noise, this seed's production draw.
+
+    None for the thesis' ideal sensors (identical noiseless mics).
+    """
+    from scenesim.sensors import SensorModel, SensorTolerance
+
+    if cond.ideal_sensors:
+        return None
+    nominal = SensorModel.from_mismatch(
+        gain_db=cond.mic_gain_db,
+        phase_deg=cond.mic_phase_deg,
+        highpass_hz=cond.mic_highpass_hz,
+        self_noise_dba=cond.self_noise_dba,
+        speech_spl_db=cond.speech_spl_db,
+    )
+    tolerance = SensorTolerance(
+        gain_tol_db=cond.mic_gain_tol_db,
+        phase_tol_deg=cond.mic_phase_tol_deg,
+        highpass_tol_hz=cond.mic_highpass_tol_hz,
+    )
+    return tolerance.draw(nominal, seed=cond.seed)
+
+
+def sensor_columns(cond: Condition) -> dict[str, Any]:
+    """The sensor parameters a row was computed with (drawn values, not the nominal ones)."""
+    from scenesim.sensors import SensorModel
+
+    sensors = build_sensors(cond)
+    out = (sensors or SensorModel()).describe()
+    out["ideal_sensors"] = int(sensors is None)
+    out["snr_band_lo_hz"], out["snr_band_hi_hz"] = cond.snr_band_hz or (None, None)
+    return out
+
+
 def build_scene(cond: Condition):
     """The :class:`scenesim.scene.Scene` of a condition (same for every SNR of its group)."""
     from scenesim.geometry import MicPair
@@ -143,27 +183,31 @@ def build_scene(cond: Condition):
     room = None
     if cond.room_dims_m is not None:
         room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
+    placed = {}  # fields have no place: keep NoiseSource's defaults
+    if cond.noise_az_deg is not None:
+        placed["azimuth_deg"] = cond.noise_az_deg
+    if cond.noise_distance_m is not None:
+        placed["distance_m"] = cond.noise_distance_m
     return Scene(
         fs=cond.fs,
         pair=MicPair(cond.pair_center_m, spacing_m=cond.spacing_m, axis_azimuth_deg=cond.axis_azimuth_deg),
         room=room,
         speech=SourcePlacement(azimuth_deg=cond.speech_az_deg, distance_m=cond.distance_m),
-        noises=(
-            NoiseSource(
-                field=cond.noise_field, azimuth_deg=cond.noise_az_deg, distance_m=cond.noise_distance_m
-            ),
-        ),
+        noises=(NoiseSource(field=cond.noise_field, wind_speed_mps=cond.wind_speed_mps, **placed),),
         snr_db=cond.snr_db,
         far_field=cond.far_field,
         snr_mode=cond.snr_mode,
         reference=cond.reference,
         seed=cond.seed,
+        sensors=build_sensors(cond),
+        snr_band_hz=cond.snr_band_hz,
     )
 
 
 def _noise_channels(field_type: str) -> int:
-    # Diffuse and incoherent fields are built from two independent noise channels.
-    return 1 if field_type == "point" else 2
+    # Diffuse, incoherent and wind fields are built from two independent noise channels;
+    # point and spread sources from one recording (spread: disjoint excerpts of it).
+    return 1 if field_type in ("point", "spread") else 2
 
 
 def render_group(cond: Condition, data_dir: str | None):
@@ -179,10 +223,32 @@ def render_group(cond: Condition, data_dir: str | None):
     noise = ds.noise(cond.noise, cond.duration_s, seed=cond.seed, n_channels=_noise_channels(cond.noise_field))
     images = render_images(build_scene(cond), _mono(speech.signal), [_squeeze(noise.signal)])
     value = (images, str(speech.source), str(noise.source))
+    _PARTS[key] = _speech_parts(cond, images, _mono(speech.signal))
     _IMAGES[key] = value
     while len(_IMAGES) > _IMAGES_MAX:
-        _IMAGES.popitem(last=False)
+        _PARTS.pop(_IMAGES.popitem(last=False)[0], None)
     return value
+
+
+_PARTS: dict[tuple, Any] = {}  # (speech parts, acoustics columns) beside each cached group
+
+
+def _speech_parts(cond: Condition, images, speech):
+    """Speech parts and room acoustics of a group; None where reverberation is not studied
+    (free field with a direct-path target: the thesis sweeps pay nothing for it)."""
+    if cond.rt60_s == 0.0 and cond.reference == "direct":
+        return None, {}
+    from benchmarks.reverb_metrics import acoustics_columns
+    from scenesim.reverb_parts import speech_parts
+
+    parts = speech_parts(images, speech, early_window_s=cond.early_window_ms / 1000.0)
+    return parts, acoustics_columns(images, parts, rt60_target_s=cond.rt60_s)
+
+
+def group_parts(cond: Condition, data_dir: str | None):
+    """``(SpeechParts or None, acoustics columns)`` of a condition's group (after :func:`render_group`)."""
+    render_group(cond, data_dir)
+    return _PARTS[(data_dir, cond.group_id)]
 
 
 def _mono(x):
@@ -232,10 +298,14 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
         try:
             t0 = time.perf_counter()
             images, speech_source, noise_source = render_group(cond, task.data_dir)
+            parts, acoustics = group_parts(cond, task.data_dir)
             rendered = images.mix(cond.snr_db)
-            base.update(speech_source=speech_source, noise_source=noise_source)
+            if parts is not None and parts.reverberant and cond.reference != "direct":
+                # Target = direct + early (the sweep's early window) for every intrusive metric.
+                rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
+            base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
             base["render_s"] = time.perf_counter() - t0
-            inputs = input_metrics(rendered)
+            inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
         except Exception as exc:
             text = _exc_text(exc)
             return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
@@ -245,7 +315,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
                 enhancer = build_enhancer(spec, cond)
                 row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
                 row["enhancer_version"] = str(enhancer.version)
-                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs))
+                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs, speech_parts=parts))
             except Exception as exc:
                 row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
             row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
@@ -313,6 +383,7 @@ def run_sweep(
     retry_errors: bool = False,
     report: bool = True,
     progress: bool = True,
+    new_version: bool = False,
 ) -> RunSummary:
     """Run ``sweep`` (a :class:`Sweep`, preset name or TOML path) into ``out_dir/results.sqlite``.
 
@@ -331,6 +402,10 @@ def run_sweep(
         Recompute rows stored with ``status='error'`` (by default they count as done).
     report : bool
         Write ``out_dir/report`` from every row in the store at the end.
+    new_version : bool
+        The store holds rows of another version of the sweep (any axis or fixed value,
+        enhancer or parameter changed): move them to ``results_previous`` and start this
+        version (without it such a run is refused, :mod:`benchmarks.versioning`).
     progress : bool
         Show a progress bar (only when stderr is a terminal).
 
@@ -359,9 +434,9 @@ def run_sweep(
     out_dir = Path(out_dir)
     t_start = time.perf_counter()
     with ResultStore.open(out_dir) as store:
+        version = check_version(store, sweep, out_dir=out_dir, new_version=new_version)
         done = store.done_keys(include_errors=not retry_errors)
         tasks = plan_conditions(sweep, conditions, done, data_dir)
-        _warn_changed_params(store, sweep, conditions, done)
         _warn_changed_data(store, data_dir, n_kept=len(conditions) - len(tasks))
         run_id = store.start_run(
             sweep=sweep.name,
@@ -383,7 +458,7 @@ def run_sweep(
                     units = plan_units(tasks, workers=ex.workers or 1)
                     with _progress(len(tasks), sweep.name, enabled=progress, workers=ex.workers) as bar:
                         for unit, outcome in ex.run(run_unit, units):
-                            for rows in _rows_of(unit, outcome, run_id):
+                            for rows in _rows_of(unit, outcome, run_id, version):
                                 # one transaction per condition: a kill never leaves half of one
                                 n_rows += store.write_rows(rows)
                                 n_errors += sum(r.get("status") != "ok" for r in rows)
@@ -442,7 +517,7 @@ def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
             )
 
 
-def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, Any]]]:
+def _rows_of(unit: UnitTask, outcome: Any, run_id: str, version: str | None = None) -> list[list[dict[str, Any]]]:
     """Rows per condition from a unit's outcome; an exception (e.g. Dask's KilledWorker)
     becomes error rows for every condition of the unit."""
     if isinstance(outcome, BaseException):
@@ -452,6 +527,7 @@ def _rows_of(unit: UnitTask, outcome: Any, run_id: str) -> list[list[dict[str, A
     for rows in per_condition:
         for row in rows:
             row["run_id"] = run_id
+            row["sweep_version"] = version
     return per_condition
 
 
@@ -465,29 +541,10 @@ def _condition_columns(cond: Condition) -> dict[str, Any]:
         "condition_id": cond.id,
         "snr_in_db": cond.snr_db,
         **{c: getattr(cond, c) for c in _CONDITION_COLUMNS},
+        **sensor_columns(cond),
         "group_id": cond.group_id,
         "condition_json": cond.to_json(),
     }
-
-
-def _warn_changed_params(store: ResultStore, sweep: Sweep, conditions, done) -> None:
-    """Stored rows made with other enhancer params are kept (same key): say so."""
-    specs = store.stored_specs()
-    ids = {c.id for c in conditions}
-    changed = set()
-    for (cid, name), text in specs.items():
-        if cid not in ids or (cid, name) not in done or not text or name not in sweep.enhancer_params:
-            continue
-        stored = json.loads(text).get("params", {})
-        for key, value in sweep.enhancer_params[name].items():
-            if key in stored and stored[key] != value:
-                changed.add(name)
-    for name in sorted(changed):
-        warnings.warn(
-            f"rows for {name!r} already in the store were computed with other parameters and are "
-            "kept; use a new --out directory to recompute them",
-            stacklevel=3,
-        )
 
 
 def _warn_changed_data(store: ResultStore, data_dir: str | None, *, n_kept: int) -> None:
@@ -530,8 +587,11 @@ def _progress(total: int, name: str, *, enabled: bool, workers: int | None = Non
     return tqdm(total=total, desc=f"bench {name}", unit="cond", disable=None, file=sys.stderr, dynamic_ncols=True)
 
 
-def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None) -> list[Path]:
-    """Write ``out_dir/report`` (Markdown, CSV, PNG) from every row of ``out_dir/results.sqlite``."""
+def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
+    """Write ``out_dir/report`` (Markdown, CSV, PNG, index.html) from every row of ``out_dir/results.sqlite``.
+
+    ``listen``: a :class:`benchmarks.listening.ListenOptions` (which conditions get audio).
+    """
     from benchmarks.report import write_report
 
     own = store is None
@@ -540,10 +600,17 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None)
     try:
         rows = store.rows()
         runs = store.runs()
+        version = store.get_meta("sweep_version")
     finally:
         if own:
             store.close()
-    return list(write_report(rows, Path(out_dir), meta=report_meta(runs, Path(out_dir) / "results.sqlite")))
+    meta = report_meta(runs, Path(out_dir) / "results.sqlite")
+    if version is not None:
+        # Never average rows of two sweep versions: the store's current version only.
+        other = sum(r.get("sweep_version") not in (None, version) for r in rows)
+        rows = [r for r in rows if r.get("sweep_version") in (None, version)]
+        meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
+    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:

@@ -85,6 +85,31 @@ EXTRA_COLUMNS: tuple[tuple[str, str], ...] = (
     ("noise_field", "TEXT"),
     ("fs", "INTEGER"),
     ("duration_s", "REAL"),
+    ("far_field", "INTEGER"),
+    ("spacing_m", "REAL"),
+    ("wind_speed_mps", "REAL"),
+    ("snr_band_lo_hz", "REAL"),
+    ("snr_band_hi_hz", "REAL"),
+    # the sensors each row was computed with (drawn values; scenesim.sensors)
+    ("ideal_sensors", "INTEGER"),
+    ("mic_gain_db", "REAL"),
+    ("mic_phase_deg", "REAL"),
+    ("mic_front_gain_db", "REAL"),
+    ("mic_rear_gain_db", "REAL"),
+    ("mic_front_highpass_hz", "REAL"),
+    ("mic_rear_highpass_hz", "REAL"),
+    ("self_noise_dba", "REAL"),
+    ("speech_spl_db", "REAL"),
+    # room acoustics of the speech RIR at the reference mic, and targets (benchmarks.reverb_metrics)
+    ("t30_s", "REAL"),
+    ("edt_s", "REAL"),
+    ("drr_rir_db", "REAL"),
+    ("c50_rir_db", "REAL"),
+    ("rt60_target_s", "REAL"),
+    ("drr_rir_target_db", "REAL"),
+    ("c50_rir_target_db", "REAL"),
+    ("critical_distance_m", "REAL"),
+    ("sweep_version", "TEXT"),
     ("group_id", "TEXT"),
     ("condition_json", "TEXT"),
     ("enhancer_spec", "TEXT"),
@@ -196,6 +221,7 @@ class ResultStore:
                 f"CREATE TABLE IF NOT EXISTS results (\n  {cols},\n  UNIQUE(condition_id, enhancer)\n)"
             )
             self._db.execute(f"CREATE TABLE IF NOT EXISTS runs (\n  {run_cols}\n)")
+            self._db.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT)")
             # A store written by an older version may lack newer extra columns: add them.
             have = {r[1] for r in self._db.execute("PRAGMA table_info(results)")}
             for name, typ in EXTRA_COLUMNS:
@@ -278,7 +304,36 @@ class ResultStore:
                 (utc_now(), status, n_rows_written, n_errors, run_id),
             )
 
+    def set_meta(self, key: str, value: str) -> None:
+        """Store-wide facts (e.g. the sweep version its rows belong to)."""
+        with self._db:
+            self._db.execute(
+                "INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT(key) DO UPDATE SET value=excluded.value",
+                (key, value),
+            )
+
+    def archive_rows(self) -> int:
+        """Move every row of ``results`` to ``results_previous`` (kept, never deleted); returns
+        the count.  Starting a new sweep version in the same store goes through here."""
+        with self._db:
+            self._db.execute("CREATE TABLE IF NOT EXISTS results_previous AS SELECT * FROM results WHERE 0")
+            have = {r[1] for r in self._db.execute("PRAGMA table_info(results_previous)")}
+            for name, typ in CONTRACT_COLUMNS + EXTRA_COLUMNS:
+                if name not in have:
+                    self._db.execute(f"ALTER TABLE results_previous ADD COLUMN {name} {typ.split()[0]}")
+            cols = ", ".join(COLUMNS)
+            n = self._db.execute(f"INSERT INTO results_previous ({cols}) SELECT {cols} FROM results").rowcount
+            self._db.execute("DELETE FROM results")
+        return n
+
     # -- reading -------------------------------------------------------------------------
+    def get_meta(self, key: str) -> str | None:
+        try:
+            row = self._db.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+        except sqlite3.OperationalError:  # a read-only store from before the meta table
+            return None
+        return None if row is None else row[0]
+
     def done_keys(self, *, include_errors: bool = True) -> set[tuple[str, str]]:
         """``{(condition_id, enhancer)}`` already stored (with ``include_errors=False``: status ok only)."""
         sql = "SELECT condition_id, enhancer FROM results"

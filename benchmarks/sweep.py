@@ -51,6 +51,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from scenesim.errors import ConfigError, ParameterError
 from scenesim.room import RT60_METHODS
 from scenesim.scene import NOISE_FIELDS, REFERENCES, SNR_MODES
@@ -60,7 +62,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-PRESETS = ("thesis", "reverb", "angles", "smoke")
+PRESETS = ("thesis", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke")
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1
@@ -124,6 +126,63 @@ def _choice(choices):
 _NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 
 
+def _in_range(lo, hi, unit):
+    def check(value):
+        return _number(value, lo=lo, hi=hi, what=f"a number in [{lo:g}, {hi:g}] ({unit})")
+
+    return check
+
+
+def _or_none(check, word):
+    """``check``, or the string ``word`` meaning None (TOML has no null)."""
+
+    def wrapped(value):
+        if value == word:
+            return None
+        try:
+            return check(value)
+        except ValueError as exc:
+            raise ValueError(f"{exc} or {word!r}") from None
+
+    return wrapped
+
+
+def _corners(value):
+    # One corner for both mics, or [front, rear]; 0 = no high-pass.
+    what = "a corner in Hz >= 0, or [front, rear]"
+    if isinstance(value, list):
+        if len(value) != 2:
+            raise ValueError(what)
+        return tuple(_number(v, lo=0.0, hi=2000.0, what=what) for v in value)
+    v = _number(value, lo=0.0, hi=2000.0, what=what)
+    return (v, v)
+
+
+def _pair_of(lo, hi, what):
+    def check(value):
+        if not isinstance(value, list) or len(value) != 2:
+            raise ValueError(what)
+        a, b = (_number(v, lo=lo, hi=hi, what=what) for v in value)
+        if not a < b:
+            raise ValueError(what)
+        return (a, b)
+
+    return check
+
+
+def _noise_field(value):
+    # A field for every noise, or a table noise type -> field (each noise its own field).
+    if isinstance(value, dict):
+        out = []
+        for noise, field_ in sorted(value.items()):
+            _noise_type(noise)
+            out.append((noise, _choice(NOISE_FIELDS)(field_)))
+        if not out:
+            raise ValueError("a non-empty table noise = field")
+        return tuple(out)
+    return _choice(NOISE_FIELDS)(value)
+
+
 def _noise_type(value):
     # Noise types name files "<type>[_<anything>].wav": lower-case, no underscore.
     if not isinstance(value, str) or not _NAME_RE.match(value) or "_" in value:
@@ -152,9 +211,47 @@ PARAMETERS: dict[str, _Param] = {
     # Order = expansion order, outermost first: geometry outside, noise then SNR innermost.
     "fs": _Param(_fs, 16000, "sampling rate in Hz"),
     "duration_s": _Param(_positive, 8.0, "length of the speech and noise signals in s"),
-    "noise_field": _Param(_choice(NOISE_FIELDS), "point", "noise field type"),
+    "noise_field": _Param(
+        _noise_field, "point", "noise field type, or a table noise type -> field type"
+    ),
     "far_field": _Param(_bool, True, "plane-wave (far-field) free-field propagation"),
     "spacing_m": _Param(_positive, 0.0214, "mic spacing in m"),
+    # The sensors (scenesim.sensors): nominal rear-re-front mismatch, high-pass corners,
+    # self-noise against a speech level, and the production spread drawn per seed.
+    "mic_gain_db": _Param(_in_range(-10.0, 10.0, "dB"), 0.0, "rear mic sensitivity re front in dB"),
+    "mic_phase_deg": _Param(_in_range(-90.0, 90.0, "deg"), 0.0, "rear mic phase re front in deg"),
+    "mic_highpass_hz": _Param(_corners, (0.0, 0.0), "first-order high-pass corner(s) in Hz"),
+    "self_noise_dba": _Param(
+        _or_none(_in_range(-20.0, 120.0, "dBA SPL"), "none"), None, "mic self-noise in dBA SPL"
+    ),
+    "speech_spl_db": _Param(_in_range(20.0, 120.0, "dB SPL"), 65.0, "talker level at the reference mic"),
+    "mic_gain_tol_db": _Param(_in_range(0.0, 6.0, "dB"), 0.0, "each mic's sensitivity spread +- dB"),
+    "mic_phase_tol_deg": _Param(_in_range(0.0, 45.0, "deg"), 0.0, "rear mic phase spread +- deg"),
+    "mic_highpass_tol_hz": _Param(_in_range(0.0, 500.0, "Hz"), 0.0, "each corner's spread +- Hz"),
+    "wind_speed_mps": _Param(_in_range(0.1, 50.0, "m/s"), 5.0, "wind speed of the 'wind' field"),
+    "snr_band_hz": _Param(
+        _or_none(_pair_of(0.0, 24000.0, "[lo, hi] in Hz with lo < hi"), "full"),
+        None,
+        "band in which the input SNR is set ('full': whole band)",
+    ),
+    "noise_az_range_deg": _Param(
+        _or_none(_pair_of(-360.0, 720.0, "[lo, hi] in deg with lo < hi"), "none"),
+        None,
+        "draw the point-noise azimuth per seed uniformly in [lo, hi] (overrides noise_az_deg)",
+    ),
+    "speech_az_range_deg": _Param(
+        _or_none(_pair_of(-360.0, 720.0, "[lo, hi] in deg with lo < hi"), "none"),
+        None,
+        "draw the talker azimuth per seed uniformly in [lo, hi] (overrides speech_az_deg)",
+    ),
+    "distance_range_m": _Param(
+        _or_none(_pair_of(0.01, 100.0, "[lo, hi] in m with lo < hi"), "none"),
+        None,
+        "draw the talker distance per seed uniformly in [lo, hi] (overrides distance_m)",
+    ),
+    "early_window_ms": _Param(
+        _in_range(0.0, 500.0, "ms"), 50.0, "early window after the direct path kept in the 'early50' target"
+    ),
     "rt60_method": _Param(_choice(RT60_METHODS), "calibrated", "how rt60_s sets absorption"),
     "snr_mode": _Param(_choice(SNR_MODES), "total", "how the input SNR is defined"),
     "reference": _Param(_choice(REFERENCES), "direct", "reference speech for the metrics"),
@@ -200,9 +297,9 @@ class Condition:
     snr_db: float
     rt60_s: float
     speech_az_deg: float
-    noise_az_deg: float
+    noise_az_deg: float | None
     distance_m: float
-    noise_distance_m: float
+    noise_distance_m: float | None
     seed: int
     fs: int
     duration_s: float
@@ -216,18 +313,47 @@ class Condition:
     room_dims_m: tuple[float, float, float] | None = None
     pair_center_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     axis_azimuth_deg: float = 0.0
+    mic_gain_db: float = 0.0
+    mic_phase_deg: float = 0.0
+    mic_highpass_hz: tuple[float, float] = (0.0, 0.0)
+    self_noise_dba: float | None = None
+    speech_spl_db: float = 65.0
+    mic_gain_tol_db: float = 0.0
+    mic_phase_tol_deg: float = 0.0
+    mic_highpass_tol_hz: float = 0.0
+    wind_speed_mps: float = 5.0
+    snr_band_hz: tuple[float, float] | None = None
+    noise_az_range_deg: tuple[float, float] | None = None
+    speech_az_range_deg: tuple[float, float] | None = None
+    distance_range_m: tuple[float, float] | None = None
+    early_window_ms: float = 50.0
 
     def canonical(self) -> dict[str, Any]:
-        """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree)."""
+        """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
+
+        Keys added after the first release enter only when they differ from their default
+        (:data:`_LATE_DEFAULTS`), so every condition that existed before them keeps its id.
+        """
         out: dict[str, Any] = {"v": ID_VERSION}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name in _LATE_DEFAULTS and value == _LATE_DEFAULTS[f.name]:
+                continue
             if isinstance(value, tuple):
                 value = [float(v) for v in value]
             elif isinstance(value, float):
                 value = float(value)
             out[f.name] = value
         return out
+
+    @property
+    def ideal_sensors(self) -> bool:
+        """True for the thesis' idealisation: identical noiseless mics with no spread."""
+        return all(
+            getattr(self, k) == _LATE_DEFAULTS[k]
+            for k in ("mic_gain_db", "mic_phase_deg", "mic_highpass_hz", "self_noise_dba",
+                      "mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz")
+        )  # fmt: skip
 
     def to_json(self) -> str:
         return json.dumps(self.canonical(), sort_keys=True, separators=(",", ":"))
@@ -236,7 +362,8 @@ class Condition:
     def from_json(cls, text: str) -> Condition:
         values = json.loads(text)
         values.pop("v", None)
-        for key in ("room_dims_m", "pair_center_m"):
+        for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz", "noise_az_range_deg",
+                    "speech_az_range_deg", "distance_range_m"):
             if values.get(key) is not None:
                 values[key] = tuple(values[key])
         return cls(**values)
@@ -255,10 +382,30 @@ class Condition:
 
     def label(self) -> str:
         room = "free field" if self.room_dims_m is None else f"{self.room} RT60 {self.rt60_s:g} s"
-        return (
-            f"{self.noise} {self.snr_db:g} dB, {room}, speech {self.speech_az_deg:g} deg, "
-            f"noise {self.noise_az_deg:g} deg, seed {self.seed}"
-        )
+        where = f"noise {self.noise_az_deg:g} deg" if self.noise_az_deg is not None else f"{self.noise_field} noise"
+        return f"{self.noise} {self.snr_db:g} dB, {room}, speech {self.speech_az_deg:g} deg, {where}, seed {self.seed}"
+
+
+_LATE_DEFAULTS: dict[str, Any] = {
+    "mic_gain_db": 0.0,
+    "mic_phase_deg": 0.0,
+    "mic_highpass_hz": (0.0, 0.0),
+    "self_noise_dba": None,
+    "speech_spl_db": 65.0,
+    "mic_gain_tol_db": 0.0,
+    "mic_phase_tol_deg": 0.0,
+    "mic_highpass_tol_hz": 0.0,
+    "wind_speed_mps": 5.0,
+    "snr_band_hz": None,
+    "noise_az_range_deg": None,
+    "speech_az_range_deg": None,
+    "distance_range_m": None,
+    "early_window_ms": 50.0,
+}
+"""Condition keys added after the first release, with the value that leaves them out of the id."""
+
+_AZIMUTH_STREAM = 11  # rng stream of per-seed noise azimuth draws
+_TALKER_STREAM = 12  # rng stream of per-seed talker azimuth and distance draws
 
 
 def _short_hash(text: str) -> str:
@@ -321,8 +468,39 @@ class Sweep:
         return len(self.conditions())
 
 
+def _draw_talker(values: dict[str, Any]) -> None:
+    """Per-seed talker azimuth / distance from ``speech_az_range_deg`` / ``distance_range_m``.
+
+    One draw per seed (the same in every room and RT60 of the sweep, so RT60s compare the same
+    placements); the ranges stay in the condition, so its rows are no azimuth/distance sweep.
+    """
+    u = np.random.default_rng([values["seed"], _TALKER_STREAM]).uniform(size=2)
+    for key, range_key, k in (("speech_az_deg", "speech_az_range_deg", 0), ("distance_m", "distance_range_m", 1)):
+        lo_hi = values[range_key]
+        if lo_hi is not None:
+            values[key] = float(round(lo_hi[0] + u[k] * (lo_hi[1] - lo_hi[0]), 6))
+
+
 def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condition:
     room_name = values.pop("room")
+    az_range = values.pop("noise_az_range_deg")
+    _draw_talker(values)
+    field_ = values["noise_field"]
+    if isinstance(field_, tuple):  # a table noise type -> field
+        values["noise_field"] = field_ = dict(field_)[values["noise"]]
+    if field_ == "point":
+        if az_range is not None:
+            # One draw per seed (the same for every noise): a spread of phone orientations.
+            # The range stays in the condition: its rows are no azimuth sweep.
+            u = np.random.default_rng([values["seed"], _AZIMUTH_STREAM]).uniform()
+            values["noise_az_deg"] = round(az_range[0] + u * (az_range[1] - az_range[0]), 6)
+            values["noise_az_range_deg"] = az_range
+    else:
+        # Fields have no place: one condition whatever the azimuth/distance axes say.
+        values["noise_az_deg"] = None
+        values["noise_distance_m"] = None
+    if field_ != "wind":
+        values["wind_speed_mps"] = _LATE_DEFAULTS["wind_speed_mps"]
     if values["rt60_s"] == 0.0:
         # Anechoic free field: no room, pair at the origin; the room name does not matter.
         return Condition(**values)
@@ -419,6 +597,7 @@ class _Parser:
             table = ("axes",) if "rt60_s" in data.get("axes", {}) else ("fixed",)
             raise self.error(table, "rt60_s", "rt60_s > 0 needs a room: define [rooms.<name>] and set room")
         params = self._enhancer_params(data.get("enhancer_params", {}), enhancers)
+        self._check_sensor_keys(axes, data)
 
         sweep = Sweep(
             name=name,
@@ -553,6 +732,30 @@ class _Parser:
             out[name] = dict(params)
         return out
 
+    def _table_of(self, key: str, data: dict) -> tuple[str, ...]:
+        return ("axes",) if key in data.get("axes", {}) else ("fixed",)
+
+    def _check_sensor_keys(self, axes: Mapping[str, tuple], data: dict) -> None:
+        """Cross-key checks: a field for every noise; bands below Nyquist (high-pass corners are
+        capped at 2 kHz by their own check, below every supported fs/2)."""
+        for value in axes["noise_field"]:
+            if isinstance(value, tuple):
+                missing = sorted(set(axes["noise"]) - {k for k, _ in value})
+                if missing:
+                    raise self.error(
+                        self._table_of("noise_field", data),
+                        "noise_field",
+                        f"no field for noise {', '.join(map(repr, missing))}; add it to the table",
+                    )
+        nyquist = min(axes["fs"]) / 2
+        for band in axes["snr_band_hz"]:
+            if band is not None and band[1] > nyquist:
+                raise self.error(
+                    self._table_of("snr_band_hz", data),
+                    "snr_band_hz",
+                    f"upper edge {band[1]:g} Hz is above fs/2 = {nyquist:g} Hz",
+                )
+
     def _check_geometry(self, sweep: Sweep, data: dict) -> None:
         """Every source must lie inside its room (the image-source method needs it)."""
         from scenesim.geometry import MicPair
@@ -562,8 +765,8 @@ class _Parser:
                 continue
             pair = MicPair(room.pair_center_m, spacing_m=sweep.axes["spacing_m"][0], axis_azimuth_deg=room.axis_azimuth_deg)
             for dist_key, az_key in (("distance_m", "speech_az_deg"), ("noise_distance_m", "noise_az_deg")):
-                for dist in sweep.axes[dist_key]:
-                    for az in sweep.axes[az_key]:
+                for dist in _with_range(sweep.axes[dist_key], sweep.axes.get(_RANGE_KEYS.get(dist_key)), 2):
+                    for az in _with_range(sweep.axes[az_key], sweep.axes.get(_RANGE_KEYS.get(az_key)), 13):
                         pos = pair.source_position(az, dist)
                         if any(not (MIN_WALL_DISTANCE_M <= p <= d - MIN_WALL_DISTANCE_M) for p, d in zip(pos, room.dims_m)):
                             table = ("axes",) if dist_key in data.get("axes", {}) else ("fixed",)
@@ -573,6 +776,19 @@ class _Parser:
                                 f"a source at {dist:g} m, {az:g} deg from the pair lies outside room "
                                 f"{room.name!r} {list(room.dims_m)} m",
                             )
+
+
+#: Parameters drawn per seed from a range key (the range's values are checked against rooms too).
+_RANGE_KEYS = {"distance_m": "distance_range_m", "speech_az_deg": "speech_az_range_deg", "noise_az_deg": "noise_az_range_deg"}
+
+
+def _with_range(values, ranges, n: int) -> tuple:
+    """``values`` plus ``n`` points across each ``[lo, hi]`` of ``ranges`` (None entries skipped)."""
+    out = list(values)
+    for r in ranges or ():
+        if r is not None:
+            out.extend(np.linspace(r[0], r[1], n).tolist())
+    return tuple(out)
 
 
 def _axis_names() -> str:

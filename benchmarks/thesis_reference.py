@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from dataclasses import dataclass
 from functools import lru_cache
@@ -99,21 +100,51 @@ def thesis_row(enhancer: str, noise: str, snr_in_db: float) -> ThesisRow | None:
     return None
 
 
+#: The thesis' array: d = c/fs at 16 kHz (its "0.0214 cm" is a typo for metres).
+THESIS_SPACING_M = 0.0214
+
+#: Sensor keys of a condition that make its mics non-ideal when set.
+_SENSOR_KEYS = ("mic_gain_db", "mic_phase_deg", "mic_highpass_hz", "self_noise_dba",
+                "mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz")  # fmt: skip
+
+
+def _condition(row: dict) -> dict:
+    """The row's condition parameters (its ``condition_json``), or {} when absent/unreadable."""
+    try:
+        return json.loads(row.get("condition_json") or "{}")
+    except (TypeError, ValueError):
+        return {}
+
+
 def is_thesis_condition(row: dict) -> bool:
-    """True when a results row has the thesis' geometry (anechoic, 45/270 deg, a point
-    noise source) and one of its noises."""
+    """True when a results row has the thesis' exact conditions: anechoic, far field, the
+    2.14 cm pair, speech at 45 deg, one point noise at 270 deg, ideal sensors, one of its noises.
+
+    Near-field rows (``far_field`` false, e.g. the ``reverb``/``angles`` presets), other
+    spacings and any non-ideal sensor (mismatch, high-pass, self-noise, tolerances) are not
+    thesis conditions and are never set beside its tables.
+    """
     try:
         rt60 = float(row.get("rt60_s") or 0.0)
         saz = float(row["speech_az_deg"]) % 360
         naz = float(row["noise_az_deg"]) % 360
     except (KeyError, TypeError, ValueError):
         return False
+    cond = _condition(row)
+    far = row.get("far_field", cond.get("far_field"))
+    spacing = row.get("spacing_m", cond.get("spacing_m"))
+    ideal = row.get("ideal_sensors")
+    if ideal is None:
+        ideal = not any(k in cond for k in _SENSOR_KEYS)
     return (
         rt60 == 0.0
         and math.isclose(saz, THESIS_GEOMETRY["speech_az_deg"])
         and math.isclose(naz, THESIS_GEOMETRY["noise_az_deg"])
         and row.get("noise") in THESIS_NOISES
         and row.get("noise_field") in (None, "point")  # a point interferer, when recorded
+        and far is not None and bool(far)
+        and spacing is not None and math.isclose(float(spacing), THESIS_SPACING_M, rel_tol=1e-6)
+        and bool(ideal)
     )
 
 

@@ -35,8 +35,8 @@ MAINS_HZ = 50.0
 MACHINE_HZ = 24.5
 #: Tooth count of the machine's gear: gear-mesh line at ``GEAR_TEETH * MACHINE_HZ`` (416.5 Hz).
 GEAR_TEETH = 17
-#: Corner frequency (Hz) of the 4th-order low-pass that shapes wind noise.
-WIND_CORNER_HZ = 120.0
+#: Corner frequency (Hz) above which the wind spectrum falls as f^(-7/3).
+WIND_CORNER_HZ = 100.0
 
 
 @dataclass(frozen=True)
@@ -161,17 +161,26 @@ def _speech_shaped(n: int, fs: int, rng: np.random.Generator):
 def _wind(n: int, fs: int, rng: np.random.Generator):
     """Wind noise on a microphone: gusty, low-frequency turbulence.
 
-    White noise through a 4th-order Butterworth low-pass at :data:`WIND_CORNER_HZ`
-    (PSD flat below, falling 24 dB/oct above) and a 2nd-order 10 Hz high-pass (no DC),
-    multiplied by a gust envelope ``exp(0.6 g(t))`` where ``g`` is unit-variance noise
-    low-passed at 0.5 Hz (gusts of a few seconds).  Independent per channel, as wind
-    turbulence at two microphones 2 cm apart is largely incoherent.
+    Spectrum: flat below :data:`WIND_CORNER_HZ`, then the pressure spectrum of turbulence in
+    the inertial subrange, PSD ~ f^(-7/3) (-7 dB/octave; the Kolmogorov scaling of
+    turbulence-turbulence pressure, George, Beuther & Arndt 1984, the shape wind-noise
+    studies on unscreened microphones use), with no DC (a 2nd-order 10 Hz high-pass).
+    Checked against a real recording (``shared/data/noise/wind_cc0.wav``): its slope is
+    -7..-10 dB/octave from 400 Hz to 6.4 kHz; the 4th-order 120 Hz low-pass used before
+    (-24 dB/octave) left almost no wind in the speech band.  Multiplied by a gust envelope
+    ``exp(0.6 g(t))`` where ``g`` is unit-variance noise low-passed at 0.5 Hz (gusts of a
+    few seconds).  Channels are independent; the spatial coherence of wind between two
+    mics is the scene's job (:func:`scenesim.noise_fields.wind_noise`, Corcos model).
     """
-    sos = butter(4, WIND_CORNER_HZ, btype="lowpass", fs=fs, output="sos")
-    hp = butter(2, 10.0, btype="highpass", fs=fs, output="sos")
-    x = sosfilt(hp, sosfilt(sos, rng.standard_normal(n)))
+    slope_db_per_decade = 10.0 * 7.0 / 3.0
+    x = _shape_spectrum(
+        rng.standard_normal(n),
+        fs,
+        lambda f: -slope_db_per_decade * np.log10(np.maximum(f, WIND_CORNER_HZ) / WIND_CORNER_HZ),
+    )
+    x = sosfilt(butter(2, 10.0, btype="highpass", fs=fs, output="sos"), x)
     gust = _slow_noise(n, fs, rng, cutoff_hz=0.5)
-    return x * np.exp(0.6 * gust), (f"wind:lowpass{WIND_CORNER_HZ:g}Hz", "wind:gusts0.5Hz")
+    return x * np.exp(0.6 * gust), (f"wind:flat<{WIND_CORNER_HZ:g}Hz,f^-7/3 above", "wind:gusts0.5Hz")
 
 
 def _slow_noise(n: int, fs: int, rng: np.random.Generator, *, cutoff_hz: float) -> np.ndarray:

@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import importlib
+import importlib.util
 import threading
 from dataclasses import dataclass, field
 from importlib import metadata
@@ -48,6 +49,10 @@ BUILTIN_SOURCE = "scenesim"
 """``source`` recorded for the enhancers that ship with this distribution."""
 
 _OWN_PACKAGES = frozenset({"scenesim", "enhancers", "benchmarks", "data_recipes"})
+
+
+class EnhancerNotInstalled(PluginError):
+    """A built-in peer whose optional package (extra) is not installed; the message says how to install it."""
 
 
 class EnhancerNotFound(PluginError, KeyError):
@@ -85,6 +90,7 @@ class EnhancerSpec:
     source: str = BUILTIN_SOURCE
     from_entry_point: bool = False
     error: str | None = None  # set for a plugin that could not even be registered
+    not_installed: str | None = None  # "pip install ..." for a peer whose optional package is absent
     _cls: type | None = field(default=None, repr=False)
 
     @property
@@ -95,6 +101,8 @@ class EnhancerSpec:
         """Import and return the class (cached); raises :class:`PluginError` naming the source."""
         if self._cls is not None:
             return self._cls
+        if self.not_installed is not None:
+            raise EnhancerNotInstalled(f"enhancer {self.name!r} is not installed: {self.not_installed}")
         if self.error is not None:
             raise PluginError(self.error)
         target = self.entry_point
@@ -380,7 +388,8 @@ def describe() -> list[dict[str, Any]]:
                 summary = getattr(cls, "summary", "") or (cls.__doc__ or "").strip().split("\n")[0]
             except Exception as exc:  # report, never raise: listing must keep working
                 tags = None
-                summary = f"ERROR: {exc}"
+                summary = (f"not installed: {spec.not_installed}" if isinstance(exc, EnhancerNotInstalled)
+                           else f"ERROR: {exc}")
             rows.append(
                 {
                     "name": base,
@@ -404,7 +413,22 @@ _BUILTINS = (
     ("ss", "enhancers.ss:SpectralSubtraction"),
     ("ss-ms2001", "enhancers.ss:SpectralSubtractionMS2001"),
     ("eb-ss", "enhancers.chain:EbSs"),
+    ("mmse-lsa", "enhancers.mmse_lsa:MmseLsa"),
+    ("superdirective", "enhancers.superdirective:Superdirective"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)
 del _name, _target
+
+# Peers behind optional extras: registered when their package can be found (find_spec does
+# not import it), else listed with the command that installs it.
+_OPTIONAL = (
+    ("webrtc-ns", "enhancers.webrtc_ns:WebrtcNoiseSuppression", "webrtc_noise_gain", "webrtc"),
+    ("rnnoise", "enhancers.rnnoise:RNNoise", "pyrnnoise", "rnnoise"),
+)
+for _name, _target, _module, _extra in _OPTIONAL:
+    if importlib.util.find_spec(_module) is not None:
+        register(_name, _target)
+    else:
+        register(_name, _target).not_installed = f"pip install -e '.[{_extra}]'"
+del _name, _target, _module, _extra

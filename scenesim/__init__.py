@@ -5,8 +5,11 @@ propagation, the endfire mic pair, noise fields and scene rendering.  Signals ar
 ``(n_channels, n_samples)`` float arrays with ``fs`` in Hz passed beside them.
 """
 
+from scenesim.air import AirAbsorption
 from scenesim.audio import read_audio, resample, write_audio
+from scenesim.bands import OCTAVE_CENTERS_HZ, octave_rt60
 from scenesim.cache import cached_rir
+from scenesim.calibration import calibrate_room
 from scenesim.crosscheck import compare_with_pyroomacoustics
 from scenesim.errors import (
     ConfigError,
@@ -21,7 +24,15 @@ from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS, MicPair, unit_vector
 from scenesim.ism import image_source_rir
 from scenesim.mixing import mix_at_snr, noise_gain_for_snr
-from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
+from scenesim.moving import render_moving_source
+from scenesim.noise_fields import (
+    corcos_coherence,
+    diffuse_noise,
+    incoherent_noise,
+    sensor_noise,
+    wind_noise,
+)
+from scenesim.render import room_rir
 from scenesim.room import ShoeBox
 from scenesim.rt60 import eyring_rt60, measure_rt60, sabine_rt60
 from scenesim.scene import (
@@ -33,5 +44,6 @@ from scenesim.scene import (
     render_images,
     render_scene,
 )
+from scenesim.sensors import MicResponse, SensorModel, SensorTolerance
 
 __version__ = "0.1.0"

@@ -24,7 +24,7 @@ from scenesim.memo import (  # noqa: F401  (re-exported: the public names of thi
     stable_hash,
 )
 
-CACHE_FORMAT = "scenesim-rir-v1"
+CACHE_FORMAT = "scenesim-rir-v2"  # v2: room_rir (20 Hz high-pass by default, bands, air)
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
 
@@ -46,7 +46,10 @@ def rir_key(room, source_m, mics_m, *, fs: int, **kwargs) -> str:
 
 
 def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> np.ndarray:
-    """``image_source_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
+    """``room_rir(room, source_m, mics_m, fs=fs, **kwargs)`` memoised; returns a copy.
+
+    :func:`scenesim.render.room_rir` is ``image_source_rir`` for flat rooms and renders rooms
+    with octave-band absorption or air absorption band by band.
 
     Parameters
     ----------
@@ -63,9 +66,9 @@ def cached_rir(room, source_m, mics_m, *, fs: int, cache_dir=None, **kwargs) -> 
     -------
     ndarray (n_mics, n_taps)
     """
-    from scenesim.ism import image_source_rir
+    from scenesim.render import room_rir  # flat rooms: exactly image_source_rir
 
     def compute() -> np.ndarray:
-        return np.asarray(image_source_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
+        return np.asarray(room_rir(room, source_m, mics_m, fs=fs, **kwargs), dtype=np.float64)
 
     return cached_array(rir_key(room, source_m, mics_m, fs=fs, **kwargs), compute, cache_dir=cache_dir)

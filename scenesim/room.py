@@ -1,69 +1,110 @@
-"""Shoebox room description: dimensions, per-wall absorption or a target RT60 (algorithms.md sections 1, 3).
+"""Shoebox room description: dimensions, per-wall (optionally per-octave) absorption, air (algorithms.md sections 1, 3).
 
 The room is ``[0, Lx] x [0, Ly] x [0, Lz]`` metres.  Walls are ordered
 ``[x=0, x=Lx, y=0, y=Ly, z=0, z=Lz]`` (pyroomacoustics' order).  ``absorption`` is the
 *energy* absorption coefficient alpha; the pressure reflection coefficient is
 ``b = sqrt(1 - alpha)``.
 
+Absorption is frequency-independent (a scalar or 6 per-wall values) or given per octave
+band: a ``(6, n_bands)`` table with ``bands_hz`` naming the band centres.  ``air`` (an
+:class:`scenesim.air.AirAbsorption`) adds ISO 9613-1 air absorption.  Rooms with bands or air
+are rendered by :func:`scenesim.render.room_rir` (one image-source RIR per band through the
+complementary filter bank of :mod:`scenesim.bands`); :meth:`ShoeBox.band_room` gives the
+flat room of one band.
+
 A room is given either by its absorption or by a target ``rt60_s`` and a method:
 
 * ``"sabine"``: uniform alpha from Sabine's formula (pyroomacoustics' ``inverse_sabine``).
 * ``"eyring"``: uniform alpha from Eyring's formula.
-* ``"calibrated"``: closed loop.  Uniform alpha is adjusted until the T30 *measured* on an
-  image-source RIR of this room (source at :data:`CALIBRATION_SOURCE_FRACTION`, mic at
-  :data:`CALIBRATION_MIC_FRACTION` of the dimensions, fs = 16 kHz, all images arriving
-  within ``1.5 * rt60_s`` plus the direct path) is within :data:`CALIBRATION_TOLERANCE`
-  (1 %) of the target.  Results are cached per (dims, rt60, c), so sweeps that build the
-  same room many times pay once.
+* ``"calibrated"``: closed loop on rendered RIRs -- a thin compatibility path to
+  :func:`scenesim.calibration.calibrate_room` (which is the API to use: it returns a room and
+  also calibrates per octave band and scales per-wall profiles).  With ``rt60_method=
+  "calibrated"`` an ``absorption`` profile may be given too: it is scaled to reach ``rt60_s``.
+
+This module does not import the renderer (no room <-> ISM import cycle): the calibration
+function is registered here by :mod:`scenesim.calibration` when the package is imported.
 """
 
 from __future__ import annotations
 
-import functools
-import math
+from collections.abc import Callable
 from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
-from scenesim.errors import ParameterError
+from scenesim.errors import ParameterError, ScenesimError
 from scenesim.rt60 import (
     eyring_absorption,
     eyring_rt60,
-    measure_rt60,
     sabine_absorption,
     sabine_rt60,
     wall_areas,
 )
-from scenesim.validate import check_choice, check_finite_number, check_positive
+from scenesim.validate import check_choice, check_positive
 
 RT60_METHODS = ("sabine", "eyring", "calibrated")
 
-CALIBRATION_SOURCE_FRACTION = (0.31, 0.42, 0.47)
-"""Source position used by ``rt60_method="calibrated"``, as fractions of (Lx, Ly, Lz)."""
-CALIBRATION_MIC_FRACTION = (0.69, 0.63, 0.55)
-"""Mic position used by ``rt60_method="calibrated"``, as fractions of (Lx, Ly, Lz)."""
-CALIBRATION_FS = 16000
-"""Sampling rate (Hz) of the RIRs measured during calibration."""
-CALIBRATION_TOLERANCE = 0.01
-"""Relative T30 error at which calibration stops (the issue asks for 5 %; we stop at 1 %)."""
-CALIBRATION_MAX_ITER = 12
+_calibrator: Callable | None = None
+
+
+def register_calibrator(fn: Callable) -> None:
+    """Install ``fn(dims_m, rt60_s, *, absorption, c) -> alpha (6,)`` for ``rt60_method="calibrated"``.
+
+    Called by :mod:`scenesim.calibration` on import (dependency inversion: the value object
+    does not import the renderer).
+    """
+    global _calibrator
+    _calibrator = fn
+
+
+def _check_absorption(value, bands: tuple | None) -> tuple[object, np.ndarray]:
+    """Validated ``(stored, alpha)``: alpha ``(6,)`` (flat) or ``(6, n_bands)`` (banded)."""
+    a = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    shapes = ((), (6,)) if bands is None else ((), (6,), (len(bands),), (6, len(bands)))
+    if a is None or a.shape not in shapes:
+        allowed = "a scalar or 6 per-wall values, each in (0, 1]" if bands is None else (
+            f"a scalar, 6 per-wall values, {len(bands)} per-band values or a (6, {len(bands)}) table"
+        )
+        raise ParameterError("absorption", value, allowed)
+    if not np.all(np.isfinite(a)) or np.any(a <= 0) or np.any(a > 1):
+        raise ParameterError("absorption", value, "values in (0, 1]")
+    if bands is None:
+        stored = float(a) if a.ndim == 0 else tuple(float(v) for v in a)
+        return stored, np.broadcast_to(a, (6,)).copy()
+    if a.ndim == 1 and a.shape == (len(bands),) and len(bands) != 6:
+        a = np.broadcast_to(a[None, :], (6, len(bands)))  # one value per band for every wall
+    elif a.ndim == 1:  # (6,) per wall, the same in every band
+        a = np.broadcast_to(a[:, None], (6, len(bands)))
+    full = np.broadcast_to(a, (6, len(bands))).copy()
+    return tuple(tuple(float(v) for v in row) for row in full), full
 
 
 @dataclass(frozen=True)
 class ShoeBox:
-    """A rectangular room with per-wall energy absorption.
+    """A rectangular room with per-wall (optionally per-octave) energy absorption.
 
     Parameters
     ----------
     dims_m : 3 floats
         Room lengths (Lx, Ly, Lz) in metres, each > 0.
-    absorption : float or 6 floats, optional
-        Energy absorption in (0, 1], one value for all walls or one per wall in the order
-        [x=0, x=Lx, y=0, y=Ly, z=0, z=Lz].  Exactly one of ``absorption`` and ``rt60_s``.
+    absorption : float, 6 floats or (6, n_bands) table, optional
+        Energy absorption in (0, 1]: one value for all walls, one per wall in the order
+        [x=0, x=Lx, y=0, y=Ly, z=0, z=Lz], or (with ``bands_hz``) one per wall and band
+        (``n_bands`` values are taken as the same for every wall; when ``n_bands == 6`` a
+        1-D value is per wall).  Exactly one of ``absorption`` and ``rt60_s``, except with
+        ``rt60_method="calibrated"`` where a given absorption is the profile to scale.
     rt60_s : float, optional
         Target reverberation time in seconds (uniform absorption derived from it).
     rt60_method : {"sabine", "eyring", "calibrated"}
         How ``rt60_s`` becomes an absorption (see the module docstring).
+    bands_hz : floats, optional
+        Octave-band centres (Hz) of a per-band absorption table, e.g.
+        :data:`scenesim.bands.OCTAVE_CENTERS_HZ`.
+    air : scenesim.air.AirAbsorption, optional
+        ISO 9613-1 air absorption (temperature, humidity).
+    target_rt60_s : float or n_bands floats, optional
+        The reverberation time an absorption was calibrated for (recorded by
+        :func:`scenesim.calibration.calibrate_room`; informational, sets default RIR lengths).
     c : float
         Speed of sound in m/s.
     min_wall_distance_m : float
@@ -74,16 +115,24 @@ class ShoeBox:
     ParameterError
         Non-positive dims, absorption outside (0, 1], both or neither of absorption/rt60_s,
         or an RT60 the room cannot have (Sabine absorption > 1).
+
+    Example
+    -------
+    >>> ShoeBox((6, 5, 3), (0.1, 0.2), bands_hz=(500, 1000)).wall_absorption.shape
+    (6, 2)
     """
 
     dims_m: tuple[float, float, float]
-    absorption: float | tuple[float, ...] | None = None
+    absorption: float | tuple | None = None
     _: KW_ONLY
     rt60_s: float | None = None
     rt60_method: str = "sabine"
     c: float = 343.0
     min_wall_distance_m: float = 0.1
-    _alpha: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    bands_hz: tuple[float, ...] | None = None
+    air: object | None = None
+    target_rt60_s: float | tuple[float, ...] | None = None
+    _alpha: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         dims = np.asarray(self.dims_m, dtype=float) if not isinstance(self.dims_m, str) else None
@@ -97,21 +146,24 @@ class ShoeBox:
             check_positive("min_wall_distance_m", self.min_wall_distance_m, allow_zero=True),
         )
         check_choice("rt60_method", self.rt60_method, RT60_METHODS)
-        if (self.absorption is None) == (self.rt60_s is None):
+        self._check_extras()
+        profile_calibration = self.absorption is not None and self.rt60_s is not None \
+            and self.rt60_method == "calibrated"
+        if (self.absorption is None) == (self.rt60_s is None) and not profile_calibration:
             raise ParameterError(
-                "absorption", self.absorption, "exactly one of absorption and rt60_s to be given"
+                "absorption", self.absorption,
+                "exactly one of absorption and rt60_s to be given (or both with "
+                "rt60_method='calibrated', which scales the absorption profile to rt60_s)",
             )
+        if self.bands_hz is not None and self.rt60_s is not None and not profile_calibration:
+            raise ParameterError("bands_hz", self.bands_hz, "a per-band absorption table (use "
+                                 "scenesim.calibrate_room for per-band RT60 targets)")
+        profile = None
         if self.absorption is not None:
-            a = np.asarray(self.absorption, dtype=float) if not isinstance(self.absorption, str) else None
-            if a is None or a.shape not in ((), (6,)):
-                raise ParameterError(
-                    "absorption", self.absorption, "a scalar or 6 per-wall values, each in (0, 1]"
-                )
-            if not np.all(np.isfinite(a)) or np.any(a <= 0) or np.any(a > 1):
-                raise ParameterError("absorption", self.absorption, "values in (0, 1]")
-            stored = float(a) if a.ndim == 0 else tuple(float(v) for v in a)
+            stored, profile = _check_absorption(self.absorption, self.bands_hz)
             object.__setattr__(self, "absorption", stored)
-            alpha = np.broadcast_to(a, (6,))
+        if self.rt60_s is None:
+            alpha = profile
         else:
             t = check_positive("rt60_s", self.rt60_s)
             object.__setattr__(self, "rt60_s", t)
@@ -122,8 +174,29 @@ class ShoeBox:
             elif self.rt60_method == "eyring":
                 alpha = np.full(6, eyring_absorption(t, self.dims_m, c=self.c))
             else:
-                alpha = np.full(6, calibrated_absorption(self.dims_m, t, self.c))
-        object.__setattr__(self, "_alpha", tuple(float(v) for v in alpha))
+                if _calibrator is None:  # pragma: no cover - scenesim/__init__ registers it
+                    raise ScenesimError("rt60_method='calibrated' needs scenesim.calibration imported")
+                alpha = np.asarray(_calibrator(self.dims_m, t, absorption=profile, bands_hz=self.bands_hz,
+                                               air=self.air, c=self.c), dtype=float)
+        alpha = np.array(alpha, dtype=float)
+        alpha.flags.writeable = False
+        object.__setattr__(self, "_alpha", alpha)
+
+    def _check_extras(self):
+        if self.bands_hz is not None:
+            from scenesim.bands import check_centers  # bands imports only rt60: no cycle
+
+            object.__setattr__(self, "bands_hz", check_centers(self.bands_hz))
+        if self.air is not None:
+            from scenesim.air import AirAbsorption
+
+            if not isinstance(self.air, AirAbsorption):
+                raise ParameterError("air", self.air, "None or a scenesim.air.AirAbsorption")
+        if self.target_rt60_s is not None:
+            t = np.asarray(self.target_rt60_s, dtype=float)
+            if t.ndim > 1 or not np.all(np.isfinite(t)) or np.any(t <= 0):
+                raise ParameterError("target_rt60_s", self.target_rt60_s, "RT60 values > 0 s")
+            object.__setattr__(self, "target_rt60_s", float(t) if t.ndim == 0 else tuple(map(float, t)))
 
     # ----------------------------------------------------------------- derived values
     @property
@@ -137,29 +210,61 @@ class ShoeBox:
         return float(np.sum(wall_areas(self.dims_m)))
 
     @property
+    def is_flat(self) -> bool:
+        """True when one image-source RIR renders the room (no bands, no air)."""
+        return self.bands_hz is None and self.air is None
+
+    @property
     def wall_absorption(self) -> np.ndarray:
-        """Energy absorption ``(6,)`` per wall, in wall order."""
+        """Energy absorption ``(6,)`` per wall (``(6, n_bands)`` with ``bands_hz``)."""
         return np.array(self._alpha)
 
     @property
     def reflection(self) -> np.ndarray:
-        """Pressure reflection coefficients ``(6,)``: ``sqrt(1 - alpha)``."""
+        """Pressure reflection coefficients ``(6,)``: ``sqrt(1 - alpha)`` (flat rooms only).
+
+        Raises :class:`ParameterError` for a room with bands or air: a single image-source
+        render would silently ignore them (use :func:`scenesim.render.room_rir`).
+        """
+        if not self.is_flat:
+            raise ParameterError("room", self, "a flat room for image_source_rir (render rooms with "
+                                 "bands or air by scenesim.render.room_rir)")
         return np.sqrt(1.0 - np.array(self._alpha))
 
-    @property
-    def sabine_rt60_s(self) -> float:
-        """Sabine RT60 (s) of the room's absorption."""
-        return sabine_rt60(self.dims_m, self._alpha, c=self.c)
+    def band_room(self, band: int | None = None) -> ShoeBox:
+        """The flat room of one band (``band`` index; None for a flat room with air)."""
+        if self.bands_hz is None:
+            alpha = self._alpha
+        else:
+            if band is None or not 0 <= int(band) < len(self.bands_hz):
+                raise ParameterError("band", band, f"a band index in 0..{len(self.bands_hz) - 1}")
+            alpha = self._alpha[:, int(band)]
+        return ShoeBox(self.dims_m, tuple(float(v) for v in alpha), c=self.c,
+                       min_wall_distance_m=self.min_wall_distance_m)
+
+    def _band_rt60(self, formula) -> float | np.ndarray:
+        if self.bands_hz is None:
+            return formula(self.dims_m, self._alpha, c=self.c)
+        return np.array([formula(self.dims_m, self._alpha[:, b], c=self.c) for b in range(len(self.bands_hz))])
 
     @property
-    def eyring_rt60_s(self) -> float:
-        """Eyring RT60 (s) of the room's absorption."""
-        return eyring_rt60(self.dims_m, self._alpha, c=self.c)
+    def sabine_rt60_s(self) -> float | np.ndarray:
+        """Sabine RT60 (s) of the room's absorption (``(n_bands,)`` with bands; air not included)."""
+        return self._band_rt60(sabine_rt60)
+
+    @property
+    def eyring_rt60_s(self) -> float | np.ndarray:
+        """Eyring RT60 (s) of the room's absorption (``(n_bands,)`` with bands; air not included)."""
+        return self._band_rt60(eyring_rt60)
 
     @property
     def nominal_rt60_s(self) -> float:
-        """The target ``rt60_s`` when given, else the Sabine RT60 (used for default RIR lengths)."""
-        return float(self.rt60_s) if self.rt60_s is not None else self.sabine_rt60_s
+        """The target RT60 when given (``rt60_s``, else ``target_rt60_s``), else the Sabine RT60;
+        the largest over bands (used for default RIR lengths)."""
+        for t in (self.rt60_s, self.target_rt60_s):
+            if t is not None:
+                return float(np.max(t))
+        return float(np.max(self.sabine_rt60_s))
 
     # ----------------------------------------------------------------- checks
     def check_inside(self, point_m, *, name: str = "position") -> np.ndarray:
@@ -182,85 +287,5 @@ class ShoeBox:
         return p
 
 
-def default_calibration_positions(dims_m) -> tuple[np.ndarray, np.ndarray]:
-    """Source and mic positions ``(3,), (3,)`` used by the closed-loop RT60 calibration."""
-    dims = np.asarray(dims_m, dtype=float)
-    return np.asarray(CALIBRATION_SOURCE_FRACTION) * dims, np.asarray(CALIBRATION_MIC_FRACTION) * dims
 
-
-def calibrated_absorption(dims_m, rt60_s: float, c: float = 343.0) -> float:
-    """Uniform absorption whose ISM RIR has a measured T30 within 1 % of ``rt60_s`` (cached).
-
-    Iterates on ``x = -ln(1 - alpha)`` (RT60 is close to proportional to ``1/x``, Eyring), first by
-    the ratio ``T_measured / T_target``, then by secant steps on ``log T`` vs ``log x``, at most
-    :data:`CALIBRATION_MAX_ITER` RIRs.  If 1 % is not reached, the best absorption is returned when
-    it is within 5 %; otherwise the target is reported as unreachable.
-
-    Raises
-    ------
-    ParameterError
-        (name ``rt60_s``) if no absorption in (0, 1] reaches the target.
-    """
-    dims = tuple(float(v) for v in dims_m)
-    return _calibrated_absorption_cached(dims, float(rt60_s), float(c))
-
-
-@functools.lru_cache(maxsize=256)
-def _calibrated_absorption_cached(dims: tuple, rt60_s: float, c: float) -> float:
-    from scenesim.ism import image_source_rir  # local import: ism imports this module
-
-    check_finite_number("rt60_s", rt60_s)
-    src_frac = np.asarray(dims) * np.asarray(CALIBRATION_SOURCE_FRACTION)
-    mic_frac = np.asarray(dims) * np.asarray(CALIBRATION_MIC_FRACTION)
-    direct_s = float(np.linalg.norm(src_frac - mic_frac)) / c
-    length_s = 1.5 * rt60_s + direct_s
-
-    def measured(alpha: float) -> float:
-        room = ShoeBox(dims, alpha, c=c, min_wall_distance_m=0.0)
-        h = image_source_rir(
-            room, src_frac, mic_frac, fs=CALIBRATION_FS, length_s=length_s, method="fast"
-        )[0]
-        return measure_rt60(h, CALIBRATION_FS, method="T30")
-
-    x_hist: list[float] = []
-    t_hist: list[float] = []
-    x = -math.log1p(-min(sabine_absorption(rt60_s, dims, c=c), 1.0 - 1e-12))
-    for _ in range(CALIBRATION_MAX_ITER):
-        alpha = -math.expm1(-x)
-        t = measured(alpha)
-        x_hist.append(x)
-        t_hist.append(t)
-        if abs(t / rt60_s - 1.0) <= CALIBRATION_TOLERANCE:
-            return float(alpha)
-        if len(x_hist) >= 2 and x_hist[-1] != x_hist[-2] and t_hist[-1] != t_hist[-2]:
-            slope = (math.log(t_hist[-1]) - math.log(t_hist[-2])) / (
-                math.log(x_hist[-1]) - math.log(x_hist[-2])
-            )
-            slope = slope if slope < -0.2 else -1.0  # guard against a noisy, flat secant
-            x = x * math.exp((math.log(rt60_s) - math.log(t)) / slope)
-        else:
-            x = x * t / rt60_s
-        if not math.isfinite(x) or x <= 0:
-            break
-        if x > 30.0:  # alpha = 1 - exp(-30): the room is as dead as it can be
-            raise ParameterError(
-                "rt60_s", rt60_s, "an RT60 this room can reach (calibration needs absorption > 1)"
-            )
-    best = int(np.argmin(np.abs(np.asarray(t_hist) / rt60_s - 1.0)))
-    if abs(t_hist[best] / rt60_s - 1.0) <= 0.05:
-        return float(-math.expm1(-x_hist[best]))
-    raise ParameterError(
-        "rt60_s", rt60_s, f"an RT60 the calibration can reach (best measured T30 {t_hist[best]:.3f} s)"
-    )
-
-
-__all__ = [
-    "CALIBRATION_FS",
-    "CALIBRATION_MIC_FRACTION",
-    "CALIBRATION_SOURCE_FRACTION",
-    "CALIBRATION_TOLERANCE",
-    "RT60_METHODS",
-    "ShoeBox",
-    "calibrated_absorption",
-    "default_calibration_positions",
-]
+__all__ = ["RT60_METHODS", "ShoeBox", "register_calibrator"]

@@ -45,9 +45,22 @@ from scenesim.cache import cached_rir, canonical, stable_hash
 from scenesim.errors import ParameterError
 from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import SPEED_OF_SOUND_MPS, MicPair
-from scenesim.mixing import active_speech_power, noise_gain_from_powers, signal_power
-from scenesim.noise_fields import diffuse_noise, incoherent_noise, sensor_noise
+from scenesim.mixing import (
+    active_speech_power,
+    bandlimit,
+    check_band,
+    noise_gain_from_powers,
+    signal_power,
+)
+from scenesim.noise_fields import (
+    diffuse_noise,
+    incoherent_noise,
+    independent_channels,
+    sensor_noise,
+    wind_noise,
+)
 from scenesim.room import ShoeBox
+from scenesim.sensors import SensorModel
 from scenesim.validate import (
     check_choice,
     check_finite_number,
@@ -57,10 +70,12 @@ from scenesim.validate import (
     check_range,
 )
 
-SCENE_FORMAT = "scenesim-scene-v1"
+SCENE_FORMAT = "scenesim-scene-v2"
 """Part of every scene key; bumped when rendering changes its numbers."""
 
-NOISE_FIELDS = ("point", "diffuse", "incoherent")
+NOISE_FIELDS = ("point", "diffuse", "incoherent", "wind", "spread")
+"""Noise field types: a point source; spherically isotropic; spatially white; wind with the
+Corcos coherence; ``n_sources`` point sources spread around the pair (babble in a room)."""
 SNR_MODES = ("total", "active")
 REFERENCES = ("direct", "early50")
 EARLY_REFERENCE_S = 0.05
@@ -68,6 +83,11 @@ EARLY_REFERENCE_S = 0.05
 
 _NOISE_STREAM = 1
 _SENSOR_STREAM = 2
+_SPREAD_STREAM = 3
+_SELF_NOISE_STREAM = 4
+#: A "spread" source keeps at least this far from the pair centre (m) and from the walls.
+SPREAD_MIN_DISTANCE_M = 0.5
+SPREAD_WALL_MARGIN_M = 0.2
 
 
 def _check_position(name: str, value):
@@ -142,13 +162,22 @@ class NoiseSource(_Placed):
 
     Parameters
     ----------
-    field : {"point", "diffuse", "incoherent"}
-        Point source (propagated like speech), spherically isotropic field, or spatially
-        incoherent noise (wind).  The placement is ignored for the two fields.
+    field : {"point", "diffuse", "incoherent", "wind", "spread"}
+        Point source (propagated like speech); spherically isotropic field; spatially
+        incoherent noise; wind turbulence with the Corcos coherence
+        (:func:`scenesim.noise_fields.wind_noise`); or ``n_sources`` point sources at seeded
+        random places (in a room: anywhere at least 0.5 m from the pair and 0.2 m from the
+        walls; in free field: plane waves from random directions), each playing its own
+        excerpt of the noise -- babble from talkers spread around a room.  The placement
+        is used by "point" only.
     azimuth_deg, distance_m, elevation_deg, position_m
         As in :class:`SourcePlacement` (default: 270 deg, broadside, 1 m).
     gain_db : float
         Level of this source relative to the others in the scene's noise image.
+    wind_speed_mps, flow_azimuth_deg : float
+        "wind" only: wind speed (m/s) and the flow direction re the array axis (deg).
+    n_sources : int
+        "spread" only: how many sources.
     """
 
     field: str = "point"
@@ -157,11 +186,21 @@ class NoiseSource(_Placed):
     elevation_deg: float = 0.0
     gain_db: float = 0.0
     position_m: tuple[float, float, float] | None = None
+    wind_speed_mps: float = 5.0
+    flow_azimuth_deg: float = 0.0
+    n_sources: int = 8
 
     def __post_init__(self):
         check_choice("field", self.field, NOISE_FIELDS)
         self._validate_placement()
         object.__setattr__(self, "gain_db", check_finite_number("gain_db", self.gain_db))
+        object.__setattr__(
+            self, "wind_speed_mps", check_range("wind_speed_mps", self.wind_speed_mps, 0.1, 50.0)
+        )
+        object.__setattr__(
+            self, "flow_azimuth_deg", check_finite_number("flow_azimuth_deg", self.flow_azimuth_deg)
+        )
+        object.__setattr__(self, "n_sources", check_int("n_sources", self.n_sources, minimum=1, maximum=64))
 
 
 @dataclass(frozen=True)
@@ -189,7 +228,13 @@ class Scene:
     reference : {"direct", "early50"}
         Reference signal in a room: direct path, or direct path + first 50 ms.
     sensor_noise_db : float, optional
-        Sensor self-noise power relative to the speech power at the reference mic (dB).
+        Legacy: white sensor noise power relative to the speech power at the reference mic
+        (dB).  Physical sensors are ``sensors`` (self-noise in dBA SPL against a speech level).
+    sensors : SensorModel, optional
+        The mics' responses and self-noise (:mod:`scenesim.sensors`); None = ideal sensors.
+    snr_band_hz : (lo, hi), optional
+        Set the SNR from the powers in this band (Hz) instead of the full band: a 0 dB wind
+        whose power lies below 100 Hz is not a 0 dB condition for speech.
     max_order : int, optional
         Image-source order bound in a room (None: all images within the RIR length).
     seed : int
@@ -214,6 +259,8 @@ class Scene:
     sensor_noise_db: float | None = None
     max_order: int | None = None
     seed: int = 0
+    sensors: SensorModel | None = None
+    snr_band_hz: tuple[float, float] | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "fs", check_fs(self.fs))
@@ -245,6 +292,15 @@ class Scene:
         if self.max_order is not None:
             object.__setattr__(self, "max_order", check_int("max_order", self.max_order, minimum=0))
         object.__setattr__(self, "seed", check_int("seed", self.seed, minimum=0))
+        if self.sensors is not None:
+            if not isinstance(self.sensors, SensorModel):
+                raise ParameterError("sensors", self.sensors, "None or a scenesim.sensors.SensorModel")
+            if len(self.sensors.mics) != 2:
+                raise ParameterError("sensors", self.sensors, "a SensorModel with 2 mics (front, rear)")
+            for m in self.sensors.mics:
+                m.highpass_ba(self.fs)  # a corner at or above fs/2 raises here, not mid-render
+        if self.snr_band_hz is not None:
+            object.__setattr__(self, "snr_band_hz", check_band(self.snr_band_hz, fs=self.fs))
         if self.room is not None:
             self._check_geometry_in_room()
         else:
@@ -300,8 +356,10 @@ class RenderedScene:
     """One scene mixed at one SNR; all arrays float64 ``(n_channels, n)``, freshly allocated.
 
     ``mixture = speech_image + noise_image``; ``noise_image`` is the scaled acoustic noise
-    plus any sensor noise; ``noise_gain`` the amplitude factor applied to the unit-gain
-    noise image; ``reference`` ``(1, n)`` the clean speech at channel 0 (direct path).
+    plus the sensors' self-noise (``self_noise_image``, also kept on its own; zeros for
+    noiseless sensors); ``noise_gain`` the amplitude factor applied to the unit-gain
+    noise image; ``reference`` ``(1, n)`` the clean speech at channel 0 (direct path),
+    through the front mic's response like the images.
     """
 
     mixture: np.ndarray
@@ -312,6 +370,7 @@ class RenderedScene:
     snr_db: float
     noise_gain: float
     scene: Scene
+    self_noise_image: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -322,7 +381,8 @@ class SceneImages:
     ----------
     speech_image : ndarray (2, n)
     noise_image : ndarray (2, n)
-        Sum of the noise sources, each at its ``gain_db``; before SNR scaling.
+        Sum of the noise sources, each at its ``gain_db``; before SNR scaling.  Both
+        images are what the mics output: through ``scene.sensors``' responses.
     reference : ndarray (1, n)
         Clean speech at the reference mic by the direct path (see the module docstring).
     fs : int
@@ -340,25 +400,52 @@ class SceneImages:
     fs: int
     rirs: Mapping[str, np.ndarray]
     scene: Scene
+    acoustic_speech: np.ndarray | None = None
+
+    def _power(self, x: np.ndarray, *, speech: bool) -> float:
+        band = self.scene.snr_band_hz
+        if band is not None:
+            x = bandlimit(x, self.fs, band)
+        if speech and self.scene.snr_mode == "active":
+            return active_speech_power(x, self.fs)
+        return signal_power(x)
 
     @functools.cached_property
     def speech_power(self) -> float:
-        """Speech power at channel 0 by ``scene.snr_mode`` (computed once, reused by every mix)."""
-        if self.scene.snr_mode == "active":
-            return active_speech_power(self.speech_image[0], self.fs)
-        return signal_power(self.speech_image[0])
+        """Speech power at channel 0 by ``scene.snr_mode``, in ``scene.snr_band_hz`` if set
+        (computed once, reused by every mix)."""
+        return self._power(self.speech_image[0], speech=True)
 
     @functools.cached_property
     def noise_power(self) -> float:
-        """Mean square of the unit-gain noise image at channel 0."""
-        return signal_power(self.noise_image[0])
+        """Mean square of the unit-gain noise image at channel 0 (in ``scene.snr_band_hz`` if set)."""
+        return self._power(self.noise_image[0], speech=False)
+
+    @functools.cached_property
+    def speech_level_power(self) -> float:
+        """Power of the *acoustic* speech at the reference mic (before the mic's response, full
+        band, by ``snr_mode``): the digital power that stands for ``sensors.speech_spl_db``."""
+        x = self.speech_image[0] if self.acoustic_speech is None else self.acoustic_speech
+        if self.scene.snr_mode == "active":
+            return active_speech_power(x, self.fs)
+        return signal_power(x)
+
+    def self_noise(self) -> np.ndarray:
+        """The sensors' self-noise ``(2, n)`` (seeded by the scene; zeros without sensors)."""
+        sensors = self.scene.sensors
+        n = self.speech_image.shape[1]
+        if sensors is None or sensors.self_noise_dba is None:
+            return np.zeros((2, n))
+        rng = np.random.default_rng([self.scene.seed, _SELF_NOISE_STREAM])
+        return sensors.self_noise(n, speech_power=self.speech_level_power, fs=self.fs, rng=rng)
 
     def mix(self, snr_db: float | None = None) -> RenderedScene:
         """Scale the noise to ``snr_db`` (default ``scene.snr_db``) at channel 0 and add it.
 
-        Sensor self-noise (``scene.sensor_noise_db``) is added after the scaling, at that
-        many dB relative to the speech power at channel 0 (same power definition as
-        ``snr_mode``), so with sensor noise the SNR is slightly below the target.
+        Sensor self-noise (``scene.sensors.self_noise_dba`` against
+        ``scene.sensors.speech_spl_db``, or the legacy ``scene.sensor_noise_db`` re the speech
+        power) is added after the scaling, so with self-noise the SNR is slightly below the
+        target; it is part of ``noise_image`` and also returned as ``self_noise_image``.
         A scene without noise sources gets gain 0 (clean mixture, plus sensor noise).
         """
         scene = self.scene
@@ -371,12 +458,14 @@ class SceneImages:
         else:
             gain = 0.0
         noise = gain * self.noise_image
+        self_noise = self.self_noise()
         if scene.sensor_noise_db is not None:
             level = 10.0 * np.log10(self.speech_power) + scene.sensor_noise_db
             rng = np.random.default_rng([scene.seed, _SENSOR_STREAM])
-            noise = noise + sensor_noise(
+            self_noise = self_noise + sensor_noise(
                 noise.shape[1], n_channels=noise.shape[0], level_db=level, rng=rng
             )
+        noise = noise + self_noise
         return RenderedScene(
             mixture=self.speech_image + noise,
             speech_image=self.speech_image.copy(),
@@ -386,6 +475,7 @@ class SceneImages:
             snr_db=snr,
             noise_gain=float(gain),
             scene=scene,
+            self_noise_image=self_noise,
         )
 
 
@@ -495,9 +585,28 @@ def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneIm
             img = diffuse_noise(
                 n, scene.pair, fs=scene.fs, rng=rng, c=scene.speed_of_sound_mps, source=arr
             )
+        elif src.field == "wind":
+            img = wind_noise(
+                n,
+                scene.pair,
+                fs=scene.fs,
+                wind_speed_mps=src.wind_speed_mps,
+                flow_azimuth_deg=src.flow_azimuth_deg,
+                rng=rng,
+                source=arr,
+            )
+        elif src.field == "spread":
+            img = _render_spread(scene, src, k, n, arr, rng, rirs)
         else:
             img = incoherent_noise(n, rng=rng, source=arr)
         noise_image += 10.0 ** (src.gain_db / 20.0) * img
+    acoustic_speech = None
+    if scene.sensors is not None and not scene.sensors.linear_ideal:
+        # What the mics output; linear, so every component goes through the same responses.
+        acoustic_speech = _freeze(speech_image[0])
+        speech_image = scene.sensors.apply(speech_image, fs=scene.fs)
+        noise_image = scene.sensors.apply(noise_image, fs=scene.fs)
+        reference = scene.sensors.mics[0].apply(reference, fs=scene.fs)
     return SceneImages(
         speech_image=_freeze(speech_image),
         noise_image=_freeze(noise_image),
@@ -505,7 +614,52 @@ def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneIm
         fs=scene.fs,
         rirs={k: _freeze(v) for k, v in rirs.items()},
         scene=scene,
+        acoustic_speech=acoustic_speech,
     )
+
+
+def spread_positions(scene: Scene, src: NoiseSource, k: int) -> np.ndarray:
+    """Positions ``(n_sources, 3)`` of a "spread" noise in a room, or unit directions in free field.
+
+    Seeded by ``(scene.seed, k)``.  In a room: uniform in the room shrunk by
+    :data:`SPREAD_WALL_MARGIN_M`, redrawn while closer than :data:`SPREAD_MIN_DISTANCE_M` to
+    the pair centre.  In free field: directions uniform on the sphere.
+    """
+    rng = np.random.default_rng([scene.seed, _SPREAD_STREAM, k])
+    if scene.room is None:
+        v = rng.standard_normal((src.n_sources, 3))
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+    dims = np.asarray(scene.room.dims_m, dtype=float)
+    lo, hi = np.full(3, SPREAD_WALL_MARGIN_M), dims - SPREAD_WALL_MARGIN_M
+    center = np.asarray(scene.pair.center_m)
+    out = []
+    for _ in range(1000 * src.n_sources):
+        p = rng.uniform(lo, hi)
+        if np.linalg.norm(p - center) >= SPREAD_MIN_DISTANCE_M:
+            out.append(p)
+            if len(out) == src.n_sources:
+                return np.asarray(out)
+    raise ParameterError(
+        "room", scene.room.dims_m, f"a room with space for sources >= {SPREAD_MIN_DISTANCE_M} m from the pair"
+    )
+
+
+def _render_spread(scene: Scene, src: NoiseSource, k: int, n: int, arr, rng, rirs: dict) -> np.ndarray:
+    """Image ``(2, n)`` of ``n_sources`` point sources, each with its own noise excerpt."""
+    signals = independent_channels(
+        n, n_channels=src.n_sources, rng=rng, source=None if arr is None else arr[0]
+    )
+    where = spread_positions(scene, src, k)
+    img = np.zeros((2, n))
+    for j, (sig, p) in enumerate(zip(signals, where)):
+        if scene.room is None:
+            az = float(np.rad2deg(np.arctan2(p[1], p[0])) - scene.pair.axis_azimuth_deg)
+            el = float(np.rad2deg(np.arcsin(np.clip(p[2], -1.0, 1.0))))
+            img += plane_wave(sig, scene.pair, azimuth_deg=az, elevation_deg=el, fs=scene.fs, c=scene.speed_of_sound_mps)
+        else:
+            part, _ = _render_point(scene, sig, SourcePlacement(position_m=tuple(p)), f"noise{k}.{j}", rirs)
+            img += part
+    return img
 
 
 def render_scene(scene: Scene, speech, noise_signals: Sequence = ()) -> RenderedScene:

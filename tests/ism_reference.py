@@ -23,8 +23,15 @@ def _kernel(t: float) -> float:
     return w * s
 
 
-def reference_rir(dims, absorption6, source, mic, *, fs, max_order, n_taps, c=343.0, sign=1.0):
-    """RIR ``(n_taps,)`` at one mic, physical scale ``g / (4 pi r)``, tap 0 = emission."""
+def reference_rir(
+    dims, absorption6, source, mic, *, fs, max_order, n_taps, c=343.0, sign=1.0, source_gain=None
+):
+    """RIR ``(n_taps,)`` at one mic, physical scale ``g / (4 pi r)``, tap 0 = emission.
+
+    ``source_gain(direction)``: optional directivity gain of the emission direction (a unit
+    3-vector at the real source).  The path leaves the source along the image-to-mic
+    direction with the component of every axis reflected an odd number of times reversed.
+    """
     beta = [math.sqrt(1.0 - a) for a in absorption6]
     h = np.zeros(n_taps)
     n = max_order
@@ -43,6 +50,12 @@ def reference_rir(dims, absorption6, source, mic, *, fs, max_order, n_taps, c=34
                     hits0 = hits // 2 if idx > 0 else (hits + 1) // 2
                     gain *= beta[2 * axis] ** hits0 * beta[2 * axis + 1] ** (hits - hits0)
                 r = math.dist(pos, mic)
+                if source_gain is not None:
+                    emit = [
+                        (mic[d] - pos[d]) / r * (-1.0 if abs(idx) % 2 else 1.0)
+                        for d, idx in enumerate((i, j, k))
+                    ]
+                    gain *= source_gain(emit)
                 amp = gain / (4.0 * math.pi * r)
                 delay = r * fs / c
                 first = math.floor(delay) - HALF_WIDTH + 1

@@ -76,7 +76,7 @@ def test_bench_report_on_a_directory_without_store(tmp_path, capsys):
 def test_bench_list_shows_presets_enhancers_and_noises(capsys):
     assert main(["bench", "list"]) == 0
     out = capsys.readouterr().out
-    for name, n in (("thesis", 18), ("reverb", 36), ("angles", 24), ("smoke", 4)):
+    for name, n in (("thesis", 18), ("reverb", 80), ("distance", 36), ("angles", 24), ("smoke", 4)):
         assert name in out and f"{n:4d} conditions" in out
     for name in ("eb", "ss", "eb-ss", "passthrough"):
         assert f"\n  {name} " in out

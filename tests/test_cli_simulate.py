@@ -118,3 +118,43 @@ def test_errors_exit_2_with_a_message(tmp_path, capsys):
     err = capsys.readouterr().err  # names the option typed, and the source it placed
     assert "--distance-m=5.0" in err and "speech source would be at" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_sensor_flags_write_the_mics_outputs_and_the_self_noise(tmp_path):
+    # Oracle: the sensor model itself -- at broadside both mics receive the same wave, so
+    # the rear/front cross-spectrum of the written speech image is the asked mismatch, and
+    # noise_image = acoustic noise + self_noise (float WAVs, so to float32 rounding).
+    import json
+
+    import numpy as np
+
+    from benchmarks.cli.main import main
+    from scenesim.audio import read_audio
+
+    out = tmp_path / "s"
+    code = main(["simulate", "--out", str(out), "--speech-az", "270", "--mic-gain-db", "0.5",
+                 "--mic-phase-deg", "2", "--self-noise-dba", "30", "--field", "wind",
+                 "--snr-band-hz", "100", "7000", "--duration-s", "1"])  # fmt: skip
+    assert code == 0
+    speech, fs = read_audio(out / "speech_image.wav")
+    X0, X1 = np.fft.rfft(speech[0].astype(float)), np.fft.rfft(speech[1].astype(float))
+    band = slice(20, X0.size - 20)
+    ratio = np.sum(X1[band] * np.conj(X0[band])) / np.sum(np.abs(X0[band]) ** 2)
+    np.testing.assert_allclose(abs(ratio), 10 ** (0.5 / 20), rtol=1e-4)
+    np.testing.assert_allclose(np.rad2deg(np.angle(ratio)), 2.0, atol=0.01)
+    self_noise, _ = read_audio(out / "self_noise.wav")
+    assert self_noise.shape == speech.shape and np.std(self_noise) > 0
+    meta = json.loads((out / "scene.json").read_text())
+    assert meta["sensors"]["mic_gain_db"] == 0.5 and meta["sensors"]["self_noise_dba"] == 30.0
+    assert meta["scene"]["snr_band_hz"] == [100, 7000]
+
+
+def test_sensor_flag_errors_name_the_flag(tmp_path, capsys):
+    from benchmarks.cli.main import main
+
+    assert main(["simulate", "--out", str(tmp_path / "x"), "--mic-gain-db", "30"]) == 2
+    err = capsys.readouterr().err
+    assert "--mic-gain-db=30.0" in err and len(err.strip().splitlines()) == 1
+    assert main(["simulate", "--out", str(tmp_path / "x"), "--mic-highpass-hz", "1", "2", "3"]) == 2
+    assert "--mic-highpass-hz" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

@@ -327,3 +327,38 @@ def test_correlated_output_components_are_flagged(scene):
         row = evaluate_enhancer(FixedGain(gain=2.0), bad)
     np.testing.assert_allclose(row["snr_cross_ratio"], -4.0, rtol=1e-12)
     assert row["status"] == "ok"
+
+
+def test_hagerman_column_equals_replay_for_linear_and_differs_for_nonlinear(scene, scene_inputs):
+    # Oracle: for a linear operator phase inversion recovers f(s), f(n) exactly (1e-9 dB);
+    # SS's gain mask depends on its input, so f(s - n) uses another mask than f(s + n).
+    import enhancers
+
+    linear = evaluate_enhancer(DelayedLowpassRamp(), scene, input_metrics=scene_inputs)
+    np.testing.assert_allclose(linear["snr_i_hagerman_db"], linear["snr_i_db"], atol=1e-9)
+    black = evaluate_enhancer(DelayedLowpassRamp(replayable=False), scene, input_metrics=scene_inputs)
+    assert black["snr_i_hagerman_db"] == black["snr_i_db"]  # its only SNR is by inversion
+    ss = evaluate_enhancer(enhancers.make("ss"), scene, input_metrics=scene_inputs)
+    assert ss["snr_method"] == "replay"
+    assert abs(ss["snr_i_hagerman_db"] - ss["snr_i_db"]) > 0.05
+
+
+def test_in_band_snr_columns(scene, scene_inputs):
+    # Oracle: powers of the ideal band-pass by Parseval, computed here independently.
+    from benchmarks.evaluate import INBAND_HZ
+
+    s0, n0 = np.asarray(scene.speech_image)[0], np.asarray(scene.noise_image)[0]
+    f = np.fft.rfftfreq(s0.size, 1 / scene.fs)
+    sel = (f >= INBAND_HZ[0]) & (f <= INBAND_HZ[1])
+    expected = 10 * np.log10(np.sum(np.abs(np.fft.rfft(s0)[sel]) ** 2) / np.sum(np.abs(np.fft.rfft(n0)[sel]) ** 2))
+    assert scene_inputs["snr_in_band_db"] == pytest.approx(expected, abs=1e-6)
+    assert (scene_inputs["inband_lo_hz"], scene_inputs["inband_hi_hz"]) == INBAND_HZ
+    row = evaluate_enhancer(FixedGain(), scene, input_metrics=scene_inputs)
+    assert row["snr_i_band_db"] == pytest.approx(0.0, abs=1e-9)  # a gain changes no SNR
+
+
+def test_raw_pesq_columns_invert_the_p862_1_mapping(scene, scene_inputs):
+    # Oracle: P.862.1, MOS-LQO = 0.999 + 4 / (1 + exp(-1.4945 x + 4.6607)) of the raw x.
+    y = scene_inputs["pesq_nb_in"]
+    x = scene_inputs["pesq_nb_raw_in"]
+    np.testing.assert_allclose(0.999 + 4 / (1 + np.exp(-1.4945 * x + 4.6607)), y, rtol=1e-12)

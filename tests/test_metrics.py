@@ -211,3 +211,15 @@ def test_estimate_lag_limits_the_search(rng):
     assert abs(estimate_lag(out, ref, max_lag=10)) <= 10
     with pytest.raises(ParameterError, match="max_lag"):
         estimate_lag(out, ref, max_lag=-1)
+
+
+def test_raw_p862_from_mos_lqo_round_trip_and_range():
+    # Oracle: ITU-T P.862.1's mapping and its stated output range (raw -0.5..4.5 maps to
+    # MOS-LQO 1.02..4.55); outside the mapping's range the raw score is clipped.
+    from benchmarks.metrics import pesq_raw_from_mos_lqo
+
+    raw = np.linspace(-0.4, 4.4, 49)
+    lqo = 0.999 + 4 / (1 + np.exp(-1.4945 * raw + 4.6607))
+    np.testing.assert_allclose([pesq_raw_from_mos_lqo(v) for v in lqo], raw, atol=1e-9)
+    assert round(0.999 + 4 / (1 + np.exp(-1.4945 * 4.5 + 4.6607)), 2) == 4.55
+    assert pesq_raw_from_mos_lqo(4.6) == 4.5 and pesq_raw_from_mos_lqo(1.0) == -0.5

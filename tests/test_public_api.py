@@ -67,3 +67,27 @@ def test_lower_layers_do_not_import_higher_ones():
     code = "import sys, scenesim\nprint([m for m in sys.modules if m.split('.')[0] in ('enhancers', 'data_recipes')])"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_sensor_model_fixed_names():
+    # contract.md "Added fixed names": sweep keys, simulate flags, presets, result columns.
+    from benchmarks.store import COLUMNS
+    from benchmarks.sweep import PRESETS, parse_sweep
+
+    sweep = parse_sweep(
+        '[axes]\nenhancers = ["passthrough"]\nnoise = ["wind"]\nsnr_db = [0]\n[fixed]\n'
+        "mic_gain_db = 0.5\nmic_phase_deg = 2\nmic_highpass_hz = [80, 120]\nself_noise_dba = 30\n"
+        'speech_spl_db = 62\nwind_speed_mps = 6\nsnr_band_hz = [100, 7000]\nnoise_field = "wind"\n'
+    )
+    cond = sweep.conditions()[0]
+    assert (cond.mic_gain_db, cond.mic_phase_deg, cond.mic_highpass_hz) == (0.5, 2.0, (80.0, 120.0))
+    assert (cond.self_noise_dba, cond.speech_spl_db, cond.wind_speed_mps) == (30.0, 62.0, 6.0)
+    assert cond.snr_band_hz == (100.0, 7000.0)
+    assert {"phone", "mismatch", "thesis", "reverb", "angles", "smoke"} <= set(PRESETS)
+    for col in ("snr_i_hagerman_db", "mic_gain_db", "mic_phase_deg", "self_noise_dba", "speech_spl_db"):
+        assert col in COLUMNS
+    out = subprocess.run(
+        [sys.executable, "-m", "benchmarks.cli.main", "simulate", "--help"], capture_output=True, text=True, timeout=120
+    )
+    for flag in ("--mic-gain-db", "--mic-phase-deg", "--mic-highpass-hz", "--self-noise-dba", "--speech-spl-db"):
+        assert flag in out.stdout

@@ -11,9 +11,12 @@ import pytest
 
 from benchmarks import thesis_reference as T
 from benchmarks.report import write_report
-from benchmarks.report_tables import aggregate, mean_std, normalise_rows
+from benchmarks.report_tables import aggregate, ci95_halfwidth, mean_std, normalise_rows
 
 SYSTEMS = ("eb", "ss", "eb-ss")
+#: What a row at the thesis' exact conditions records besides the angles (far field, the
+#: 2.14 cm pair, ideal sensors, a point noise).
+THESIS_ROW = {"far_field": 1, "spacing_m": 0.0214, "ideal_sensors": 1, "noise_field": "point"}
 OFFSET_DB = -1.25  # ours = thesis + offset (+- seed spread), so both numbers are distinct
 
 
@@ -46,6 +49,7 @@ def _row(enhancer, noise, snr, *, rt60=0.0, noise_az=270.0, seed=0, **extra):
         "status": "ok",
         "error": None,
         "trace_json": None,
+        **THESIS_ROW,
     }
     if enhancer == "eb":
         beta = np.clip(np.linspace(0, 1.2, 500), 0, 1)
@@ -117,7 +121,9 @@ def test_summary_puts_thesis_numbers_next_to_ours(report):
     eb_babble = text.split("### EB (`eb`), babble — thesis table 7.1")[1].split("###")[0]
     row0 = next(ln for ln in eb_babble.splitlines() if ln.startswith("| 0 |"))
     ours = 13.8492 + OFFSET_DB  # seeds -0.25 / +0.25 average out
-    assert f"{ours:.2f} ± 0.35" in row0  # std of (-0.25, +0.25) with ddof 1
+    # 95 % t interval of the mean of (-0.25, +0.25): t_{.975,1} * std / sqrt(2) = 3.18
+    assert f"{ours:.2f} ± {ci95_halfwidth(np.std([-0.25, 0.25], ddof=1), 2):.2f}" in row0
+    assert "± 3.18" in row0
     assert "13.85" in row0 and "1.639" in row0 and "2.049" in row0
     assert len(lines) >= 6  # one 0 dB line per system x noise
     # Headline: EB-SS averages from tables 7.7/7.8 and the claimed 17 / 22 dB.
@@ -182,11 +188,30 @@ def test_thesis_loader_rows_and_headline():
     assert T.thesis_row("eb", "wind", 25).pesq_out == 3.705
     assert T.thesis_row("passthrough", "wind", 25) is None
     assert T.is_thesis_condition(
-        {"rt60_s": None, "speech_az_deg": 45, "noise_az_deg": -90, "noise": "wind"}
+        {"rt60_s": None, "speech_az_deg": 45, "noise_az_deg": -90, "noise": "wind", **THESIS_ROW}
     )
     assert not T.is_thesis_condition(
-        {"rt60_s": 0.3, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "wind"}
+        {"rt60_s": 0.3, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "wind", **THESIS_ROW}
     )
+
+
+@pytest.mark.parametrize(
+    "change",
+    [{"far_field": 0}, {"spacing_m": 0.02}, {"ideal_sensors": 0}, {"far_field": None},
+     {"ideal_sensors": None, "condition_json": json.dumps({"mic_gain_db": 0.5})}],
+)  # fmt: skip
+def test_only_the_thesis_geometry_with_ideal_sensors_is_a_thesis_condition(change):
+    # Regression: the near-field reverb/angles rows used to be labelled "thesis table 7.1".
+    row = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble", **THESIS_ROW}
+    assert T.is_thesis_condition(row)
+    assert not T.is_thesis_condition({**row, **change})
+
+
+def test_thesis_condition_read_from_condition_json_when_columns_are_absent():
+    base = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble"}
+    cond = {"far_field": True, "spacing_m": 0.0214, "noise_field": "point"}
+    assert T.is_thesis_condition({**base, "condition_json": json.dumps(cond)})
+    assert not T.is_thesis_condition({**base, "condition_json": json.dumps({**cond, "far_field": False})})
 
 
 def test_versioned_names_warnings_and_negative_zero(tmp_path):
@@ -198,14 +223,14 @@ def test_versioned_names_warnings_and_negative_zero(tmp_path):
     write_report(rows, tmp_path)
     text = (tmp_path / "report" / "summary.md").read_text()
     assert "### EB-SS (`eb-ss@1`), babble — thesis table 7.7" in text
-    assert "**Headline (EB-SS average SNR-I, babble):**" in text
+    assert "**Headline (EB-SS average SNR-I, babble, ideal sensors):**" in text
     assert "2 × UserWarning: noise 'babble' synthesized" in text
     assert "-0.00" not in text
     assert "output power): **1**." in text and "  - passthrough: 1 rows" in text
 
 
 def test_diffuse_noise_is_not_a_thesis_condition():
-    row = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble"}
+    row = {"rt60_s": 0.0, "speech_az_deg": 45, "noise_az_deg": 270, "noise": "babble", **THESIS_ROW}
     assert T.is_thesis_condition({**row, "noise_field": "point"})
     assert not T.is_thesis_condition({**row, "noise_field": "diffuse"})
 
@@ -216,7 +241,7 @@ def test_thesis_report_explains_why_the_eb_exceeds_the_printed_tables(tmp_path):
              speech_az_deg=45.0, noise_az_deg=270.0, seed=0, snr_out_db=snr + 30.0, snr_i_db=30.0,
              pesq_nb_in=1.5, pesq_nb_out=4.0, pesq_wb_in=1.2, pesq_wb_out=3.5, stoi_in=0.8,
              stoi_out=0.99, speech_source="artificial-voice", noise_source="synthetic:babble",
-             status="ok", error=None)
+             status="ok", error=None, **THESIS_ROW)
         for snr in (0, 5) for name in ("eb", "passthrough")
     ]
     write_report(rows, tmp_path)

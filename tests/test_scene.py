@@ -236,13 +236,15 @@ def test_room_speech_image_is_speech_convolved_with_the_ism_rir(speech, noise):
     scene = small_room_scene()
     r = render_scene(scene, speech, [noise])
     src = scene.pair.source_position(45.0, 1.0)
-    h = image_source_rir(scene.room, src, scene.pair.positions_m, fs=FS, max_order=3)
+    # Scenes render through scenesim.render.room_rir: the ISM RIR with a 20 Hz high-pass by default.
+    h = image_source_rir(scene.room, src, scene.pair.positions_m, fs=FS, max_order=3, highpass_hz=20.0)
     # Oracle: scipy.signal.fftconvolve with the ISM's RIR; tolerance 1e-9 of the peak.
     expected = sps.fftconvolve(speech[None, :], h, axes=1)[:, :N]
     np.testing.assert_allclose(r.speech_image, expected, atol=1e-9 * np.abs(expected).max())
     # The reference is the direct path only: the order-0 RIR (1/(4 pi r) at r/c).
     h0 = image_source_rir(scene.room, src, scene.pair.positions_m[:1], fs=FS, max_order=0)
-    expected_ref = sps.fftconvolve(speech[None, :], h0, axes=1)[:, :N]
+    h0_hp = image_source_rir(scene.room, src, scene.pair.positions_m[:1], fs=FS, max_order=0, highpass_hz=20.0)
+    expected_ref = sps.fftconvolve(speech[None, :], h0_hp, axes=1)[:, :N]
     np.testing.assert_allclose(r.reference, expected_ref, atol=1e-9 * np.abs(expected_ref).max())
     r0 = np.linalg.norm(scene.pair.positions_m[0] - src)
     assert np.argmax(h0[0]) == round(r0 * FS / scene.room.c)
@@ -330,14 +332,15 @@ def test_cached_rir_memory_and_disk(tmp_path):
     src, mics = (1.0, 1.0, 1.0), np.array([[2.0, 2.0, 1.5], [2.1, 2.0, 1.5]])
     cache.clear_memory_cache()
     h1 = cache.cached_rir(room, src, mics, fs=FS, max_order=2, cache_dir=tmp_path)
-    # Oracle: the ISM called directly (bit-identical: the cache stores what it computed).
-    np.testing.assert_array_equal(h1, image_source_rir(room, src, mics, fs=FS, max_order=2))
+    # Oracle: the ISM called directly (bit-identical: the cache stores what it computed), with the
+    # 20 Hz high-pass room_rir applies by default.
+    np.testing.assert_array_equal(h1, image_source_rir(room, src, mics, fs=FS, max_order=2, highpass_hz=20.0))
     files = list(tmp_path.iterdir())
     assert len(files) == 1 and files[0].suffix == ".npy"  # no temporary file left behind
     h1[:] = 0.0  # the caller's copy; the cache is untouched
     cache.clear_memory_cache()
     h2 = cache.cached_rir(room, src, mics, fs=FS, max_order=2, cache_dir=tmp_path)  # from disk
-    np.testing.assert_array_equal(h2, image_source_rir(room, src, mics, fs=FS, max_order=2))
+    np.testing.assert_array_equal(h2, image_source_rir(room, src, mics, fs=FS, max_order=2, highpass_hz=20.0))
     assert cache.memory_cache_size() == 1
     files[0].write_bytes(b"torn")  # an unreadable file is recomputed and replaced
     cache.clear_memory_cache()

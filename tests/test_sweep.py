@@ -81,14 +81,28 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("reverb", 36, 5), ("angles", 24, 5), ("smoke", 4, 4)],
+    [("thesis", 18, 4), ("phone", 90, 6), ("mismatch", 96, 3), ("peers", 45, 8), ("reverb", 80, 5),
+     ("distance", 36, 5), ("angles", 24, 5),
+     ("smoke", 4, 4)],
 )
 def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancers):
     sweep = load_sweep(name)
     assert sweep.name == name and sweep.description
     assert len(sweep.conditions()) == n_conditions
     assert len(sweep.enhancers) == n_enhancers
-    assert set(PRESETS) == {"thesis", "reverb", "angles", "smoke"}
+    assert set(PRESETS) == {"thesis", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke"}
+
+
+def test_reverb_draws_talker_and_noise_per_seed_the_same_at_every_rt60():
+    conds = load_sweep("reverb").conditions()
+    by_seed = {}
+    for c in conds:
+        assert 20 <= c.speech_az_deg <= 70 and 0.5 <= c.distance_m <= 1.2
+        assert c.noise_field == "diffuse" or 100 <= c.noise_az_deg <= 260
+        by_seed.setdefault(c.seed, set()).add((c.speech_az_deg, c.distance_m))
+    assert all(len(v) == 1 for v in by_seed.values())  # one placement per seed, every RT60
+    assert len({next(iter(v)) for v in by_seed.values()}) == 5  # and a different one per seed
+    assert {c.reference for c in conds} == {"early50"}
 
 
 def test_thesis_is_the_thesis_setup_with_babble_0db_first():
@@ -208,3 +222,19 @@ def test_sweep_file_on_disk_uses_its_stem_as_default_name(tmp_path):
     path.write_text(MINIMAL.replace('name = "mini"\n', ""))
     sweep = load_sweep(path)
     assert sweep.name == "my_sweep" and sweep.text == path.read_text()
+
+
+def test_early_window_default_keeps_ids_and_other_values_change_them():
+    base = [c.id for c in parse_sweep(MINIMAL).conditions()]
+    same = parse_sweep(MINIMAL + "early_window_ms = 50\n").conditions()
+    other = parse_sweep(MINIMAL + "early_window_ms = 30\n").conditions()
+    assert [c.id for c in same] == base
+    assert all(c.early_window_ms == 30.0 for c in other) and not set(base) & {c.id for c in other}
+
+
+def test_talker_range_outside_the_room_is_a_config_error():
+    from benchmarks.sweep import preset_text
+
+    text = preset_text("reverb").replace("distance_range_m = [0.5, 1.2]", "distance_range_m = [0.5, 3.5]")
+    with pytest.raises(ConfigError, match="distance_m.*outside room"):
+        parse_sweep(text)

@@ -1,4 +1,4 @@
-"""``scenesim bench run | report | list``: run sweeps, write reports, list what is available."""
+"""``scenesim bench run | report | compare | list``: run sweeps, write reports, compare stores, list what is available."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from benchmarks.cli.checks import corrupt_store_error, prepare_out_dir
+from benchmarks.cli.checks import check_store_readable, corrupt_store_error, prepare_out_dir
 from benchmarks.lock import run_lock
 from benchmarks.progress import slow_rir_warning
 from benchmarks.signals import sigterm_as_interrupt
@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
         description="Run a sweep (a preset name or a TOML file) into DIR/results.sqlite and "
         "write DIR/report.  Rerunning on the same --out computes only what is missing.",
     )
-    run.add_argument("sweep", metavar="PRESET_OR_TOML", help="thesis, reverb, angles, smoke, or a sweep .toml file")
+    run.add_argument("sweep", metavar="PRESET_OR_TOML", help="a preset (scenesim bench list) or a sweep .toml file")
     run.add_argument("--out", required=True, metavar="DIR", help="output directory (store + report)")
     run.add_argument("--executor", choices=("local", "dask"), default="local", help="where to run (default: local)")
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
@@ -39,11 +39,28 @@ def add_parser(subparsers) -> None:
     run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
     run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
+    run.add_argument(
+        "--new-version",
+        action="store_true",
+        help="DIR holds rows of a changed sweep: move them to table results_previous and start over",
+    )
     run.set_defaults(func=_run)
 
-    rep = sub.add_parser("report", help="write tables (Markdown, CSV) and figures (PNG) from a store")
+    rep = sub.add_parser("report", help="write tables (Markdown, CSV), figures (PNG) and index.html (with audio) from a store")
     rep.add_argument("dir", type=Path, metavar="DIR", help="a directory holding results.sqlite")
+    rep.add_argument("--listen", nargs="+", default=(), metavar="CONDITION_ID", help="give these conditions audio players in index.html (default: a spread of noises and SNRs)")
+    rep.add_argument("--listen-count", type=_nonneg_int, default=None, metavar="N", help="how many conditions get audio when --listen is not given (default 6; 0: none)")
     rep.set_defaults(func=_report)
+
+    cmp_ = sub.add_parser(
+        "compare",
+        help="paired differences (B - A) between two stores of the same sweep, with 95%% CIs over seeds",
+    )
+    cmp_.add_argument("dir_a", type=Path, metavar="DIR_A", help="baseline store directory")
+    cmp_.add_argument("dir_b", type=Path, metavar="DIR_B", help="store compared with it")
+    cmp_.add_argument("--out", type=Path, default=None, metavar="DIR", help="where compare.csv/.md go (default: DIR_B/compare)")
+    cmp_.add_argument("--metrics", nargs="+", default=None, metavar="COLUMN", help="result columns to compare (default: snr_i_db pesq_nb_out pesq_wb_out stoi_out estoi_out si_sdr_out_db)")
+    cmp_.set_defaults(func=_compare)
 
     lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
     lst.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="data directory whose noises to list")
@@ -86,6 +103,7 @@ def _run(args) -> int:
     if slow:
         print(f"scenesim: warning: {slow}", file=sys.stderr)
     with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
+        check_store_readable(out / "results.sqlite")  # a damaged store: say so before writing to it
         summary = run_sweep(
             sweep,
             out,
@@ -97,6 +115,7 @@ def _run(args) -> int:
             seed=args.seed,
             retry_errors=args.retry_errors,
             report=not args.no_report,
+            new_version=args.new_version,
         )
     for note in summary.warnings:
         print(f"scenesim: warning: {note}", file=sys.stderr)
@@ -105,6 +124,9 @@ def _run(args) -> int:
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
         print(f"report:  {index}")
+        page = next((f for f in summary.report_files if f.name == "index.html"), None)
+        if page:
+            print(f"page:    {page}")
     if summary.report_error:
         print(
             f"scenesim: error: the report could not be written ({summary.report_error}); the results "
@@ -127,10 +149,22 @@ def _store_errors(out_dir):
 
 
 def _report(args) -> int:
+    from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
     from benchmarks.runner import write_store_report
 
+    count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
     with _store_errors(args.dir):
-        files = write_store_report(args.dir)
+        files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
+    for f in files:
+        print(f)
+    return 0
+
+
+def _compare(args) -> int:
+    from benchmarks.compare import DEFAULT_METRICS, compare_stores
+
+    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS))
+    print(text)
     for f in files:
         print(f)
     return 0
@@ -146,7 +180,7 @@ def _list(args) -> int:
     for name in PRESETS:
         sweep = load_sweep(name)
         n = sweep.n_conditions
-        print(f"  {name:<8} {n:4d} conditions x {len(sweep.enhancers)} enhancers = {n * len(sweep.enhancers):4d} rows")
+        print(f"  {name:<9}{n:4d} conditions x {len(sweep.enhancers)} enhancers = {n * len(sweep.enhancers):4d} rows")
         print(f"           {sweep.description}")
 
     print("\nEnhancers (name, version, source package):")

@@ -122,6 +122,28 @@ def check_input_file(option: str, path) -> Path:
     return path
 
 
+def check_store_readable(store_path) -> None:
+    """Read every row of every table of an existing sqlite store, read-only; sqlite's error if it can't.
+
+    Run before a command writes to the store, so that a damaged file (truncated pages,
+    garbage, text that is not UTF-8) is reported before anything is added to it.
+    """
+    store_path = Path(store_path)
+    if not store_path.is_file():
+        return
+    db = sqlite3.connect(f"file:{store_path.resolve()}?mode=ro", uri=True, timeout=30.0)
+    try:
+        check = db.execute("PRAGMA quick_check").fetchone()
+        if check and check[0] != "ok":
+            raise sqlite3.DatabaseError(f"integrity check: {check[0]}")
+        tables = [r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+        for table in tables:
+            for _ in db.execute(f'SELECT * FROM "{table}"'):  # decodes every text value
+                pass
+    finally:
+        db.close()
+
+
 def corrupt_store_error(store_path: Path, exc: sqlite3.DatabaseError) -> DataError:
     """The one-line error for a results store sqlite cannot read, with how to move it aside."""
     return DataError(

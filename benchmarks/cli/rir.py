@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -43,8 +44,19 @@ def add_parser(subparsers):
     wall.add_argument("--absorption", nargs="+", type=float, metavar="A",
                       help="energy absorption in (0, 1]: one value or 6 in the order x=0 x=Lx y=0 y=Ly z=0 z=Lz")
     wall.add_argument("--rt60", type=float, metavar="S", help="target RT60 in seconds")
+    wall.add_argument("--band-absorption", nargs="+", type=float, metavar="A",
+                      help="octave-band absorption at 125 Hz..8 kHz: 7 values (every wall) or 42 "
+                           "(6 walls x 7 bands, wall by wall)")
+    wall.add_argument("--band-rt60", nargs=7, type=float, metavar="S",
+                      help="target T30 per octave 125 Hz..8 kHz (calibrated per band)")
     p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="sabine",
                    help="how --rt60 becomes an absorption (default sabine)")
+    p.add_argument("--air", action="store_true",
+                   help="add ISO 9613-1 air absorption (see --temperature, --humidity)")
+    p.add_argument("--temperature", type=float, default=20.0, metavar="C",
+                   help="air temperature in degrees Celsius for --air (default 20)")
+    p.add_argument("--humidity", type=float, default=50.0, metavar="PCT",
+                   help="relative humidity in %% for --air (default 50)")
     p.add_argument("--source", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"),
                    help="source position in metres")
     mics = p.add_mutually_exclusive_group(required=True)
@@ -60,9 +72,26 @@ def add_parser(subparsers):
     p.add_argument("--max-order", type=int, default=None, metavar="N",
                    help="L1 image order bound (default: all images within the RIR length; "
                         "with --compare: pyroomacoustics' inverse-Sabine order)")
+    p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
+                   help="causal 2nd-order Butterworth high-pass of the RIR in Hz (default 20, as every "
+                        "rendered scene; 0 = the raw image sum)")
     p.add_argument("--length", type=float, default=None, metavar="S", help="RIR length in seconds")
-    p.add_argument("--method", choices=("auto", "exact", "fast"), default="auto",
-                   help="renderer (default auto)")
+    p.add_argument("--method", choices=("auto", "exact", "fast", "hybrid"), default="auto",
+                   help="renderer (default auto); hybrid = images up to --mixing-time, then a "
+                        "stochastic tail with the ISM's decay and diffuse coherence")
+    p.add_argument("--mixing-time", type=float, default=None, metavar="S",
+                   help="hybrid only: end of the image-source part in seconds (default 0.08)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="hybrid only: seed of the tail (default: derived from the positions)")
+    p.add_argument("--directivity", choices=("omni", "cardioid-family", "talker"), default="omni",
+                   help="source directivity: cardioid-family (p + (1-p) cos, --directivity-p) or "
+                        "talker (front/back ratio rising with frequency, per octave)")
+    p.add_argument("--directivity-p", type=float, default=0.5, metavar="P",
+                   help="cardioid-family p: 1 omni, 0.5 cardioid, 0.25 hypercardioid, 0 figure-eight")
+    p.add_argument("--source-azimuth", type=float, default=0.0, metavar="DEG",
+                   help="directivity axis, degrees from +x towards +y (default 0)")
+    p.add_argument("--source-elevation", type=float, default=0.0, metavar="DEG",
+                   help="directivity axis elevation in degrees (default 0)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--format", choices=FORMATS, default="npy", help="output format (default npy)")
     p.add_argument("--compare", choices=("pyroomacoustics",), default=None,
@@ -106,8 +135,7 @@ def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
 
 def run(args) -> int:
     from scenesim.geometry import DEFAULT_SPACING_M, MicPair
-    from scenesim.ism import image_source_rir
-    from scenesim.room import ShoeBox
+    from scenesim.render import room_rir
 
     check_cli_fs("--fs", args.fs)
     out = prepare_out_dir("--out", args.out)
@@ -117,7 +145,7 @@ def run(args) -> int:
             raise ParameterError("--absorption", args.absorption, "1 or 6 values")
         absorption = args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
     with options_named(_OPTIONS):
-        room = ShoeBox(tuple(args.dims), absorption, rt60_s=args.rt60, rt60_method=args.rt60_method)
+        room = _build_room(args, absorption)
     if args.pair_center is not None:
         spacing = DEFAULT_SPACING_M if args.spacing is None else args.spacing
         with options_named(_OPTIONS):
@@ -132,14 +160,21 @@ def run(args) -> int:
     # The saved RIR depends only on the user's settings; --compare picks its own order for
     # the comparison and must not change what is written.
     max_order = args.max_order
+    directivity = _directivity(args)
+    hybrid_kw = {"mixing_time_s": args.mixing_time, "seed": args.seed} if args.method == "hybrid" else {}
     with options_named(_OPTIONS):
-        h = image_source_rir(
+        h = room_rir(
             room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-            method=args.method,
+            method=args.method, highpass_hz=args.highpass if args.highpass else None,
+            directivity=directivity, **hybrid_kw,
         )
     if not np.all(np.isfinite(h)):
         raise ParameterError("--source/--mic", tuple(args.source), "positions giving a finite RIR")
     _warn_rt60_miss(h, args.fs, args)
+    # --compare uses pyroomacoustics' inverse-Sabine order unless --max-order was given.
+    compare_order = max_order
+    if args.compare and compare_order is None:
+        compare_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
     written = []
     if args.format in ("npy", "both"):
         np.save(out / "rir.npy", h)
@@ -152,31 +187,42 @@ def run(args) -> int:
     meta = {
         "dims_m": list(room.dims_m),
         "wall_absorption": room.wall_absorption.tolist(),
-        "rt60_s": room.rt60_s,
-        "rt60_method": room.rt60_method,
-        "sabine_rt60_s": room.sabine_rt60_s,
+        "rt60_s": args.rt60,
+        "rt60_method": args.rt60_method if args.rt60 is not None else None,
+        "sabine_rt60_s": np.asarray(room.sabine_rt60_s).tolist(),
         "source_m": list(map(float, args.source)),
         "mics_m": mics.tolist(),
         "fs": args.fs,
         "max_order": max_order,
         "n_taps": int(h.shape[1]),
         "method": args.method,
+        "mixing_time_s": args.mixing_time if args.method == "hybrid" else None,
+        "seed": args.seed if args.method == "hybrid" else None,
+        "directivity": None if directivity is None else {
+            "kind": args.directivity, "coefficients": directivity.coefficients,
+            "bands_hz": directivity.bands_hz, "azimuth_deg": directivity.azimuth_deg,
+            "elevation_deg": directivity.elevation_deg,
+        },
         "time_origin": "tap 0 = emission, no global delay",
     }
+    meta.update(_band_meta(room))
+    meta["highpass_hz"] = args.highpass if args.highpass else None
     write_json_atomic(out / "rir.json", meta)
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
           f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
-    if args.compare:
+    if args.compare and not room.is_flat:
+        written += _compare_bands(room, args, mics, compare_order, out)
+    elif args.compare:
         from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
-        compare_order = max_order
-        if compare_order is None:
-            compare_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
+        # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
+        method = "auto" if args.method == "hybrid" else args.method
         check = compare_with_pyroomacoustics(
-            room, args.source, mics, fs=args.fs, max_order=compare_order, method=args.method
+            room, args.source, mics, fs=args.fs, max_order=compare_order, method=method
         )
-        write_json_atomic(out / "crosscheck.json", check.to_dict())
+        numbers = check.to_dict()
+        write_json_atomic(out / "crosscheck.json", numbers)
         plot_crosscheck(check, path=out / "crosscheck.png")
         written += [out / "crosscheck.json", out / "crosscheck.png"]
         print(f"pyroomacoustics 0.10.1 cross-check (max_order {compare_order}, {check.n_images} images):")
@@ -189,6 +235,134 @@ def run(args) -> int:
             print("  inter-mic delay err n/a (needs two or more mics)")
         print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
               f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
+        if directivity is not None:
+            numbers["directivity"] = _compare_directivity(args, room, mics, compare_order, directivity)
+            write_json_atomic(out / "crosscheck.json", numbers)
+        if args.method == "hybrid":
+            numbers["hybrid"] = _compare_hybrid(args, room, mics, compare_order, directivity, h)
+            write_json_atomic(out / "crosscheck.json", numbers)
     for path in written:
         print(f"wrote {path}")
     return 0
+
+
+def _build_room(args, absorption):
+    """The room the flags describe (calibrated rooms through scenesim.calibration.calibrate_room)."""
+    from scenesim.air import AirAbsorption
+    from scenesim.bands import OCTAVE_CENTERS_HZ
+    from scenesim.calibration import calibrate_room
+    from scenesim.room import ShoeBox
+
+    air = AirAbsorption(temperature_c=args.temperature, humidity_pct=args.humidity) if args.air else None
+    dims = tuple(args.dims)
+    if args.band_rt60 is not None:
+        return calibrate_room(dims, tuple(args.band_rt60), bands_hz=OCTAVE_CENTERS_HZ, air=air, fs=args.fs)
+    if args.band_absorption is not None:
+        values = np.asarray(args.band_absorption, dtype=float)
+        if values.size not in (7, 42):
+            raise ParameterError("band_absorption", args.band_absorption, "7 or 42 values")
+        table = values if values.size == 7 else values.reshape(6, 7)
+        return ShoeBox(dims, table, bands_hz=OCTAVE_CENTERS_HZ, air=air)
+    if args.rt60 is not None and args.rt60_method == "calibrated":
+        return calibrate_room(dims, args.rt60, air=air, fs=args.fs)
+    return ShoeBox(dims, absorption, rt60_s=args.rt60, rt60_method=args.rt60_method, air=air)
+
+
+def _band_meta(room) -> dict:
+    meta = {"bands_hz": None if room.bands_hz is None else list(room.bands_hz)}
+    if room.target_rt60_s is not None:
+        meta["target_rt60_s"] = room.target_rt60_s if np.ndim(room.target_rt60_s) == 0 else list(room.target_rt60_s)
+    if room.air is not None:
+        meta["air"] = {"temperature_c": room.air.temperature_c, "humidity_pct": room.air.humidity_pct,
+                       "pressure_kpa": room.air.pressure_kpa, "standard": "ISO 9613-1"}
+    return meta
+
+
+def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
+    """Octave-band materials / air absorption against pyroomacoustics: print and save the figures."""
+    from scenesim.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
+    from scenesim.crosscheck_bands import (
+        compare_bands_with_pyroomacoustics,
+        pyroomacoustics_air_table,
+    )
+
+    check = compare_bands_with_pyroomacoustics(room, args.source, mics, fs=args.fs, max_order=max_order)
+    numbers = check.to_dict()
+    what = " + ".join(w for w, on in (("octave-band materials", room.bands_hz is not None),
+                                      ("air absorption", room.air is not None)) if on)
+    print(f"pyroomacoustics 0.10.1 cross-check, {what} (max_order {max_order}):")
+    print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
+    print("  octave (Hz)         " + " ".join(f"{f:>7g}" for f in check.bands_hz))
+    print("  energy ours-theirs  " + " ".join(f"{v:+7.3f}" for v in check.band_energy_db) + " dB")
+    print("  T30 ours (s)        " + " ".join(f"{v:7.3f}" for v in check.t30_ours_s))
+    print("  T30 theirs (s)      " + " ".join(f"{v:7.3f}" for v in check.t30_theirs_s))
+    print(f"  max |T30 diff|      {100 * check.max_t30_rel_diff:.2f} %; max |energy diff| "
+          f"{check.max_band_energy_db:.3f} dB")
+    if room.air is not None:
+        ours = room.air.db_per_m(exact_midband_hz(OCTAVE_CENTERS_HZ)) * 1000.0
+        theirs = pyroomacoustics_air_table(room.air.temperature_c, room.air.humidity_pct) * 1000.0
+        numbers["air_iso9613_db_per_km"] = [float(v) for v in ours]
+        numbers["air_pyroomacoustics_table_db_per_km"] = [float(v) for v in theirs]
+        print("  air ISO 9613-1      " + " ".join(f"{v:7.2f}" for v in ours) + " dB/km (used on both sides)")
+        print("  air pra table       " + " ".join(f"{v:7.2f}" for v in theirs) + " dB/km (its own coarse class)")
+    path = out / "crosscheck.json"
+    write_json_atomic(path, numbers)
+    return [path]
+
+
+def _directivity(args):
+    from scenesim.directivity import Directivity
+
+    kw = {"azimuth_deg": args.source_azimuth, "elevation_deg": args.source_elevation}
+    if args.directivity == "cardioid-family":
+        return Directivity.cardioid_family(args.directivity_p, **kw)
+    if args.directivity == "talker":
+        return Directivity.talker(**kw)
+    return None
+
+
+def _compare_directivity(args, room, mics, max_order, directivity) -> list:
+    """pyroomacoustics shares the frequency-independent first-order cardioid family: compare
+    each distinct band's p (talker: one run per octave) at the same orientation."""
+    from scenesim.crosscheck_directivity import compare_directivity_with_pyroomacoustics
+
+    coef = directivity.coefficient_array
+    rows = []
+    print("  directivity vs pyroomacoustics CardioidFamily (same images; tolerance in tests 5e-3):")
+    for band, fc in enumerate(directivity.bands_hz):
+        p = float(coef[band, 0])  # order 1: p + (1 - p) cos
+        chk = compare_directivity_with_pyroomacoustics(
+            room, args.source, mics, fs=args.fs, max_order=max_order, p=p,
+            azimuth_deg=directivity.azimuth_deg, elevation_deg=directivity.elevation_deg,
+        )
+        label = f"{fc:g} Hz band" if directivity.n_bands > 1 else "pattern"
+        print(f"    {label:>14}: p={p:.3f} rel L2 per mic {', '.join(f'{v:.2e}' for v in chk.rel_l2)} "
+              f"(directivity changes the RIR by {max(chk.effect_rel_l2):.2f} rel L2)")
+        rows.append({"band_hz": fc, **chk.to_dict()})
+    return rows
+
+
+def _compare_hybrid(args, room, mics, max_order, directivity, h) -> dict:
+    """Hybrid vs the full ISM: early taps, T30 and EDT (20 Hz high-passed) of mic 0."""
+    from scipy import signal
+
+    from scenesim.ism import DEFAULT_MIXING_TIME_S
+    from scenesim.render import room_rir
+    from scenesim.rt60 import measure_rt60
+
+    # The same renderer and high-pass as the hybrid RIR, so only the tail differs.
+    full = room_rir(
+        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+        method="fast", directivity=directivity, highpass_hz=args.highpass if args.highpass else None,
+    )
+    n_mix = round((args.mixing_time or DEFAULT_MIXING_TIME_S) * args.fs)
+    sos = signal.butter(2, 20.0, btype="highpass", fs=args.fs, output="sos")
+    hf, hh = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, h[0])
+    res = {
+        "early_max_error_rel_peak": float(np.abs(h[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()),
+        "t30_ratio": measure_rt60(hh, args.fs, method="T30") / measure_rt60(hf, args.fs, method="T30"),
+        "edt_ratio": measure_rt60(hh, args.fs, method="EDT") / measure_rt60(hf, args.fs, method="EDT"),
+    }
+    print(f"  hybrid vs full ISM: early taps max err {res['early_max_error_rel_peak']:.1e} of peak, "
+          f"T30 ratio {res['t30_ratio']:.3f}, EDT ratio {res['edt_ratio']:.3f}")
+    return res

@@ -3,6 +3,9 @@
 Writes into ``--out DIR``: ``mixture.wav`` (2 ch), ``speech_image.wav`` (2 ch),
 ``noise_image.wav`` (2 ch), ``reference.wav`` (1 ch), all 32-bit float, and ``scene.json``
 (every scene parameter, the scene key, the noise gain and where the signals came from).
+With a sensor model (``--mic-gain-db``, ``--mic-phase-deg``, ``--mic-highpass-hz``,
+``--self-noise-dba``, ``--speech-spl-db``) every per-mic image is what the mics output, and
+``self_noise.wav`` (2 ch) holds the self-noise on its own (it is also in the noise image).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from scenesim.scene import (
     SourcePlacement,
     render_images,
 )
+from scenesim.sensors import SensorModel
 
 DEFAULT_DURATION_S = 3.0
 
@@ -133,6 +137,24 @@ def add_parser(subparsers):
     p.add_argument(
         "--spacing-m", type=float, default=0.0214, help="mic spacing in metres (default 0.0214)"
     )
+    sensors = p.add_argument_group("sensors (scenesim.sensors; default: ideal identical noiseless mics)")
+    sensors.add_argument("--mic-gain-db", type=float, default=0.0, metavar="DB", help="rear mic sensitivity re front")
+    sensors.add_argument("--mic-phase-deg", type=float, default=0.0, metavar="DEG", help="rear mic phase re front")
+    sensors.add_argument(
+        "--mic-highpass-hz",
+        type=float,
+        nargs="+",
+        metavar="HZ",
+        help="first-order high-pass corner for both mics, or FRONT REAR",
+    )
+    sensors.add_argument("--self-noise-dba", type=float, metavar="DBA", help="mic self-noise in dBA SPL (e.g. 30)")
+    sensors.add_argument(
+        "--speech-spl-db", type=float, default=65.0, metavar="DB", help="talker level at the reference mic (default 65)"
+    )
+    p.add_argument("--wind-speed-mps", type=float, default=5.0, metavar="M/S", help="wind speed of --field wind")
+    p.add_argument(
+        "--snr-band-hz", type=float, nargs=2, metavar=("LO", "HI"), help="set the SNR in this band (default: full band)"
+    )
     p.add_argument("--fs", type=int, default=16000, help="sampling rate in Hz (default 16000)")
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
     p.set_defaults(func=run)
@@ -184,6 +206,27 @@ _OPTION_OF = {
 }
 
 
+def build_sensors(args) -> SensorModel | None:
+    """The sensor model of the command line, or None for ideal sensors."""
+    hp = args.mic_highpass_hz
+    if hp is not None and len(hp) not in (1, 2):
+        raise ParameterError("--mic-highpass-hz", hp, "one corner in Hz, or FRONT REAR")
+    flags = {"gain_db": "--mic-gain-db", "phase_deg": "--mic-phase-deg", "highpass_hz": "--mic-highpass-hz",
+             "mic_highpass_hz": "--mic-highpass-hz", "self_noise_dba": "--self-noise-dba",
+             "speech_spl_db": "--speech-spl-db"}  # fmt: skip
+    try:
+        model = SensorModel.from_mismatch(
+            gain_db=args.mic_gain_db,
+            phase_deg=args.mic_phase_deg,
+            highpass_hz=None if hp is None else (hp[0] if len(hp) == 1 else tuple(hp)),
+            self_noise_dba=args.self_noise_dba,
+            speech_spl_db=args.speech_spl_db,
+        )
+    except ParameterError as exc:  # name the flag the user typed, not the library's keyword
+        raise ParameterError(flags.get(exc.name, exc.name), exc.value, exc.allowed) from None
+    return None if model.ideal else model
+
+
 def build_scene(args) -> Scene:
     """The :class:`Scene` described by the command-line arguments (errors name the options)."""
     try:
@@ -223,7 +266,12 @@ def _build_scene(args) -> Scene:
         room=room,
         speech=SourcePlacement(azimuth_deg=args.speech_az, distance_m=args.distance_m),
         noises=(
-            NoiseSource(field=args.field, azimuth_deg=args.noise_az, distance_m=args.distance_m),
+            NoiseSource(
+                field=args.field,
+                azimuth_deg=args.noise_az,
+                distance_m=args.distance_m,
+                wind_speed_mps=args.wind_speed_mps,
+            ),
         ),
         snr_db=args.snr_db,
         far_field=not args.near_field,
@@ -231,6 +279,8 @@ def _build_scene(args) -> Scene:
         reference=args.reference,
         sensor_noise_db=args.sensor_noise_db,
         seed=args.seed,
+        sensors=build_sensors(args),
+        snr_band_hz=None if args.snr_band_hz is None else tuple(args.snr_band_hz),
     )
 
 
@@ -259,7 +309,7 @@ def run(args) -> int:
     n = speech.size
     if args.noise is not None:
         y, _ = read_audio(args.noise, fs=fs)
-        noise = y[0] if (args.field == "point" or y.shape[0] != 2) else y
+        noise = y[0] if (args.field in ("point", "spread") or y.shape[0] != 2) else y
         noise_source = str(args.noise)
     else:
         # Twice the length, so a diffuse field gets two disjoint halves as independent channels.
@@ -273,6 +323,8 @@ def run(args) -> int:
         "noise_image": rendered.noise_image,
         "reference": rendered.reference,
     }
+    if scene.sensors is not None and scene.sensors.self_noise_dba is not None:
+        files["self_noise"] = rendered.self_noise_image
     for name, sig in files.items():
         write_audio(out / f"{name}.wav", sig, fs, subtype="FLOAT")
     write_json_atomic(
@@ -284,6 +336,7 @@ def run(args) -> int:
             "n_samples": int(n),
             "snr_db": rendered.snr_db,
             "noise_gain": rendered.noise_gain,
+            "sensors": (scene.sensors.describe() if scene.sensors is not None else None),
             "speech_source": speech_source,
             "noise_source": noise_source,
             "files": {name: f"{name}.wav" for name in files},

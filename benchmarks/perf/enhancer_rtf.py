@@ -2,7 +2,9 @@
 
     python -m benchmarks.perf.enhancer_rtf [--seconds 10] [--runs 5] [--block 128]
 
-For ``eb``, ``ss``, ``eb-ss`` (and ``ss-ms2001``, ``eb`` per-sample) on seeded 2-channel
+For ``eb``, ``ss``, ``eb-ss`` (and ``ss-ms2001``, ``eb`` per-sample, and the peers
+``mmse-lsa``, ``superdirective``, ``webrtc-ns``, ``rnnoise`` -- the last two only when their
+optional packages are installed) on seeded 2-channel
 16 kHz audio (a plane wave of noise plus independent sensor noise): batch ``process`` and
 streaming ``process_block`` with 8 ms blocks (128 samples).  Median of ``--runs`` runs after
 one warm-up run (which also fills the calibration caches).  Targets (issue 3): batch RTF
@@ -75,6 +77,21 @@ def measure(names, *, seconds: float = 10.0, runs: int = 5, block: int = 128) ->
     return rows
 
 
+def _installed_peers() -> list[str]:
+    """The peer enhancers (issue 9) whose optional packages are installed."""
+    from enhancers.registry import EnhancerNotInstalled, get
+
+    peers = []
+    for name in ("mmse-lsa", "superdirective", "webrtc-ns", "rnnoise"):
+        try:
+            get(name)
+        except EnhancerNotInstalled as exc:
+            print(f"skipped: {exc}")
+            continue
+        peers.append(name)
+    return peers
+
+
 def _make_with(name, kwargs):
     import enhancers
 
@@ -88,6 +105,7 @@ def main(argv=None) -> int:
     ap.add_argument("--block", type=int, default=128)
     args = ap.parse_args(argv)
     names = [("eb", {}), ("ss", {}), ("eb-ss", {}), ("ss-ms2001", {}), ("eb", {"update": "sample"})]
+    names += [(peer, {}) for peer in _installed_peers()]
     rows = measure(names, seconds=args.seconds, runs=args.runs, block=args.block)
     print(f"Real-time factor on {args.seconds:g} s of 16 kHz audio, median of {args.runs} runs, "
           f"streaming blocks of {args.block} samples (targets: batch <= {TARGET_BATCH}, "

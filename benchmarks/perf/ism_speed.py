@@ -10,17 +10,32 @@ constructed outside the timed region for both:
   as in the cross-check, so both produce the same thing).
 
 Also printed: the ratio of process CPU times (pyroomacoustics runs ``num_threads`` threads,
-2 on this machine; ours one), the agreement (max relative L2 over the two mics after alignment) and our peak
-traced memory at RT60 1.0 s (``tracemalloc``; numpy reports its buffers to it).
+2 on this machine; ours one), the agreement (max relative L2 over the two mics after alignment).
 
-Run: ``python -m benchmarks.perf.ism_speed [--runs 5]``.  Timings are wall-clock and noisy on
-a shared machine.
+Hybrid rows: ``method="hybrid"`` (default mixing time) against the full ISM (``"fast"``), both
+with the default length (1.2 RT60 + direct path) and every image within it, rooms with
+``ShoeBox(rt60_s=...)`` (Sabine absorption); T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.rt60``) as the
+ratio hybrid / full, and the early taps' max difference relative to the peak.
+
+Memory: peak traced memory (``tracemalloc``; numpy reports its buffers to it) of one RIR at
+RT60 ``--memory-rt60`` (default 2 s) by the fast renderer and, with ``--exact-memory``, by the
+exact one (several minutes: ~25 M images x 80 taps x 2 mics in numpy).
+
+JIT: the first call of the compiled kernel in fresh processes, with an empty numba cache
+(compile) and then with the cache written by that run (load).
+
+Run: ``python -m benchmarks.perf.ism_speed [--runs 5] [--exact-memory]``.  Timings are
+wall-clock and noisy on a shared machine.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 import tracemalloc
 
@@ -48,14 +63,19 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--rt60", type=float, nargs="+", default=[0.2, 0.4, 0.6, 1.0])
+    parser.add_argument("--hybrid-rt60", type=float, nargs="+", default=[0.6, 1.0, 2.0])
+    parser.add_argument("--memory-rt60", type=float, default=2.0)
+    parser.add_argument("--exact-memory", action="store_true",
+                        help="also trace the exact renderer at --memory-rt60 (minutes)")
+    parser.add_argument("--skip-pra", action="store_true", help="only hybrid, memory and JIT rows")
     args = parser.parse_args(argv)
+    jit = _jit_cost()
     fs = 16000
     previous = pra.constants.get("rir_hpf_enable")
     pra.constants.set("rir_hpf_enable", False)
     rows = []
-    peak = {}
     try:
-        for dims in ([6.0, 5.0, 3.0], [5.0, 4.0, 3.0]):
+        for dims in ([] if args.skip_pra else [[6.0, 5.0, 3.0], [5.0, 4.0, 3.0]]):
             d = np.asarray(dims)
             pair = MicPair(tuple(d * [0.62, 0.55, 0.0] + [0, 0, 1.2]))
             mics = pair.positions_m
@@ -81,11 +101,6 @@ def main(argv=None) -> int:
                     theirs = np.asarray(proom.rir[m][0], float)[PRA_GLOBAL_DELAY:] / (4 * np.pi)
                     n = min(theirs.size, ours.shape[1])
                     rel.append(np.linalg.norm(ours[m, :n] - theirs[:n]) / np.linalg.norm(theirs[:n]))
-                if rt60 == max(args.rt60):
-                    tracemalloc.start()
-                    image_source_rir(room, src, mics, fs=fs, max_order=max_order)
-                    peak[tuple(dims)] = tracemalloc.get_traced_memory()[1]
-                    tracemalloc.stop()
                 mo, mp = statistics.median(t_ours), statistics.median(t_pra)
                 cpu = statistics.median(c_pra) / max(statistics.median(c_ours), 1e-9)
                 rows.append((dims, rt60, max_order, n_images, mo, mp, mp / mo, cpu, max(rel)))
@@ -102,11 +117,94 @@ def main(argv=None) -> int:
               f"{cpu:6.2f}x {rel:9.2e}")
     print(f"speedup = median wall time ratio; cpu x = median process-CPU-time ratio "
           f"(pyroomacoustics uses num_threads={pra.constants.get('num_threads')}, ours 1 thread)")
-    for dims, bytes_ in peak.items():
-        room_s = "x".join(f"{v:g}" for v in dims)
-        print(f"peak traced memory of ours at RT60 {max(args.rt60):g} s in {room_s}: "
-              f"{bytes_ / 2**20:.1f} MiB")
+    _hybrid_rows(args, fs)
+    _memory_rows(args, fs)
+    print(f"JIT (first call in a fresh process): compile {jit[0]:.2f} s with an empty numba cache, "
+          f"{jit[1]:.2f} s loading the cache (cache=True); import of numba included")
     return 0
+
+
+def _scene(dims):
+    from scenesim.geometry import MicPair
+
+    d = np.asarray(dims)
+    mics = MicPair(tuple(d * [0.62, 0.55, 0.0] + [0, 0, 1.2])).positions_m
+    return d * [0.3, 0.35, 0.0] + [0, 0, 1.5], mics
+
+
+def _hybrid_rows(args, fs):
+    from scipy import signal
+
+    from scenesim.ism import DEFAULT_MIXING_TIME_S, image_source_rir
+    from scenesim.room import ShoeBox
+    from scenesim.rt60 import measure_rt60
+
+    sos = signal.butter(2, 20.0, btype="highpass", fs=fs, output="sos")
+    print(f"\nhybrid (mixing time {DEFAULT_MIXING_TIME_S:g} s) vs full ISM, default length, "
+          f"median of {args.runs} runs; T30/EDT ratios of mic 0 after a 20 Hz high-pass")
+    print(f"{'room':>10} {'rt60':>5} {'t_full s':>9} {'t_hyb s':>9} {'speedup':>8} {'T30 h/f':>8} "
+          f"{'EDT h/f':>8} {'early err':>9}")
+    for dims in ([6.0, 5.0, 3.0], [5.0, 4.0, 3.0]):
+        src, mics = _scene(dims)
+        for rt60 in args.hybrid_rt60:
+            room = ShoeBox(tuple(dims), rt60_s=rt60)
+            t_f, t_h = [], []
+            for _ in range(args.runs):
+                t0 = time.perf_counter()
+                full = image_source_rir(room, src, mics, fs=fs, method="fast")
+                t_f.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                hyb = image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)
+                t_h.append(time.perf_counter() - t0)
+            hp_f, hp_h = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, hyb[0])
+            t30 = measure_rt60(hp_h, fs, method="T30") / measure_rt60(hp_f, fs, method="T30")
+            edt = measure_rt60(hp_h, fs, method="EDT") / measure_rt60(hp_f, fs, method="EDT")
+            n_mix = round(DEFAULT_MIXING_TIME_S * fs)
+            early = np.abs(hyb[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()
+            mf, mh = statistics.median(t_f), statistics.median(t_h)
+            room_s = "x".join(f"{v:g}" for v in dims)
+            print(f"{room_s:>10} {rt60:5.2f} {mf:9.4f} {mh:9.4f} {mf / mh:7.1f}x {t30:8.3f} "
+                  f"{edt:8.3f} {early:9.1e}")
+
+
+def _memory_rows(args, fs):
+    import pyroomacoustics as pra
+
+    from scenesim.ism import image_source_rir
+    from scenesim.room import ShoeBox
+
+    methods = ["fast", "hybrid"] + (["exact"] if args.exact_memory else [])
+    print(f"\npeak traced memory of one RIR pair at RT60 {args.memory_rt60:g} s "
+          f"(pyroomacoustics' inverse-Sabine order; hybrid: default length)")
+    for dims in ([6.0, 5.0, 3.0], [5.0, 4.0, 3.0]):
+        src, mics = _scene(dims)
+        e_abs, max_order = pra.inverse_sabine(args.memory_rt60, dims)
+        room = ShoeBox(tuple(dims), e_abs)
+        for method in methods:
+            kw = {} if method == "hybrid" else {"max_order": max_order}
+            tracemalloc.start()
+            t0 = time.perf_counter()
+            h = image_source_rir(room, src, mics, fs=fs, method=method, **kw)
+            dt = time.perf_counter() - t0
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+            room_s = "x".join(f"{v:g}" for v in dims)
+            print(f"  {room_s:>8} {method:>6}: {peak / 2**20:7.1f} MiB peak "
+                  f"(output {h.nbytes / 2**20:.1f} MiB, order {max_order}, {dt:.1f} s)")
+
+
+def _jit_cost():
+    """Seconds of the first kernel call in a fresh process: (empty cache, warm cache)."""
+    code = ("import time; t = time.perf_counter(); from scenesim.ism_kernels import warm_up; "
+            "warm_up(); print(time.perf_counter() - t)")
+    out = []
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for _ in range(2):
+            res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                 text=True, check=True)
+            out.append(float(res.stdout.strip().splitlines()[-1]))
+    return out
 
 
 if __name__ == "__main__":

@@ -1,0 +1,56 @@
+"""``benchmarks.load_results(DIR)``: a store's rows as a pandas DataFrame, for notebooks.
+
+pandas is optional (it is in the ``dev`` extra, not a runtime dependency): without it
+:func:`load_results` raises :class:`scenesim.errors.ScenesimError` with the one line
+that installs it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from benchmarks.store import COLUMNS, ResultStore
+from scenesim.errors import ScenesimError
+
+PANDAS_MISSING = "benchmarks.load_results needs pandas: pip install pandas"
+
+
+def _pandas():
+    try:
+        import pandas
+    except ImportError:
+        raise ScenesimError(PANDAS_MISSING) from None
+    return pandas
+
+
+def load_results(out_dir: str | Path, *, ok_only: bool = False):
+    """Every row of ``out_dir/results.sqlite`` as a :class:`pandas.DataFrame`.
+
+    Parameters
+    ----------
+    out_dir : path
+        A sweep's output directory (the one ``scenesim bench run --out`` wrote).
+    ok_only : bool
+        Keep only rows with ``status == 'ok'`` (error rows have empty metrics).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per (condition, enhancer) in insertion order; the store's columns in its
+        order (contract columns first, e.g. ``condition_id, enhancer, noise, snr_in_db,
+        ..., snr_i_db, pesq_nb_out, ...``); missing values are NaN/None.
+
+    Examples
+    --------
+    >>> df = load_results("results/thesis")                          # doctest: +SKIP
+    >>> df.groupby(["enhancer", "noise"])["snr_i_db"].mean()          # doctest: +SKIP
+    """
+    pd = _pandas()
+    with ResultStore.open(out_dir, readonly=True) as store:
+        rows = store.rows("status = 'ok'") if ok_only else store.rows()
+    columns = [c for c in COLUMNS if not rows or c in rows[0]]
+    columns += [c for c in (rows[0] if rows else ()) if c not in columns]
+    return pd.DataFrame.from_records(rows, columns=columns)
+
+
+__all__ = ["PANDAS_MISSING", "load_results"]

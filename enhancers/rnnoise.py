@@ -1,0 +1,101 @@
+"""RNNoise (Valin 2018) as a black-box peer, through the ``pyrnnoise`` package.
+
+Optional: ``pip install -e '.[rnnoise]'`` (``pyrnnoise``, Apache-2.0 wrapper; the bundled
+``librnnoise.so`` is Xiph's BSD-licensed RNNoise with its model weights compiled in, so
+nothing is fetched at run time).  Only the C library is called (through the ctypes
+handle ``pyrnnoise.rnnoise.lib``): pyrnnoise's own file/stream helpers are not used.
+
+RNNoise runs at 48 kHz on 10 ms frames (480 samples) of float samples in int16 units.
+This wrapper takes 16 kHz audio: each 10 ms frame (160 samples) is upsampled by 3
+(zero-stuffing and a 97-tap linear-phase low-pass, 7.6 kHz cutoff, Kaiser beta 8),
+denoised, low-pass filtered by the same FIR and decimated by 3.  Both filters keep their
+state across frames (``scipy.signal.lfilter`` with ``zi``), so the resampling streams.
+
+Latency (declared in ``tags``): 159 samples of frame buffering + 32 (the two FIRs, 2 x 48
+samples at 48 kHz) + 320 (RNNoise's own delay, 20 ms: measured, the output's
+cross-correlation with speech peaks there for every CMU ARCTIC utterance tried) = 511
+samples, checked in the tests.  Not replayable: measured by phase inversion.
+
+RNNoise's network was trained on real speech: it treats the built-in artificial voice
+(the speech of a sweep without ``--data-dir``) largely as noise -- in a smoke-like sweep
+STOI fell by 0.3-0.7 with it, but by 0.00-0.05 with CMU ARCTIC speech (``--data-dir``).
+Benchmark it with real speech.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+from pyrnnoise.rnnoise import lib as _lib
+from scipy.signal import firwin, lfilter
+
+from enhancers.base import Params
+from enhancers.blackbox import INT16_SCALE, FramedBlackBox, to_int16_scale
+
+__all__ = ["RNNoise"]
+
+_RATE_IN, _RATE_LIB, _UP = 16000, 48000, 3
+_N_TAPS = 97  # (97 - 1) / 2 = 48 samples of delay per filter at 48 kHz: a whole 16 kHz sample count
+
+
+@functools.lru_cache(maxsize=1)
+def _lowpass() -> np.ndarray:
+    return firwin(_N_TAPS, 7600.0, window=("kaiser", 8.0), fs=_RATE_LIB)
+
+
+class _Engine:
+    """One RNNoise stream: the C state and the two resampling filters' states."""
+
+    def __init__(self):
+        self.handle = _lib.rnnoise_create(None)
+        self.zi_up = np.zeros(_N_TAPS - 1)
+        self.zi_down = np.zeros(_N_TAPS - 1)
+
+    def __del__(self):
+        handle, self.handle = getattr(self, "handle", None), None
+        if handle:
+            _lib.rnnoise_destroy(handle)
+
+    def frame(self, x16: np.ndarray) -> np.ndarray:
+        h = _lowpass()
+        up = np.zeros(x16.size * _UP)
+        up[::_UP] = x16
+        up, self.zi_up = lfilter(_UP * h, 1.0, up, zi=self.zi_up)
+        buf_in = np.ascontiguousarray(to_int16_scale(up), dtype=np.float32)
+        buf_out = np.empty_like(buf_in)
+        ptr = ctypes.POINTER(ctypes.c_float)
+        _lib.rnnoise_process_frame(self.handle, buf_out.ctypes.data_as(ptr), buf_in.ctypes.data_as(ptr))
+        down, self.zi_down = lfilter(h, 1.0, buf_out.astype(np.float64) / INT16_SCALE, zi=self.zi_down)
+        return down[::_UP]
+
+
+class RNNoise(FramedBlackBox):
+    """RNNoise (``pyrnnoise``'s bundled library) at 48 kHz behind 16 kHz <-> 48 kHz resampling.
+
+    Example
+    -------
+    >>> import numpy as np
+    >>> x = 0.1 * np.random.default_rng(0).standard_normal((1, 16000))
+    >>> RNNoise().process(x, 16000).output.shape
+    (1, 16000)
+    """
+
+    name: ClassVar[str] = "rnnoise"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "RNNoise (pyrnnoise; black box, 48 kHz with 16 kHz resampling)"
+    frame_samples: ClassVar[int] = 160
+    library_delay_samples: ClassVar[int] = 32 + 320  # FIRs + RNNoise (measured)
+
+    @dataclass(frozen=True)
+    class Params(Params):
+        """No parameters (RNNoise has none)."""
+
+    def _open(self) -> _Engine:
+        return _Engine()
+
+    def _run_frame(self, engine: _Engine, frame: np.ndarray) -> np.ndarray:
+        return engine.frame(frame)

@@ -1,0 +1,99 @@
+"""A store never mixes sweep versions silently (issue 8, section 4).
+
+Real SQLite stores, real runs of a tiny sweep (passthrough only, 1 s of audio, one worker).
+"""
+
+from __future__ import annotations
+
+import sqlite3
+
+import pytest
+
+from benchmarks.cli.main import main
+from benchmarks.runner import run_sweep, write_store_report
+from benchmarks.sweep import parse_sweep
+from benchmarks.versioning import SweepVersionError, config_version, describe_changes, sweep_config
+
+TOML = """
+[sweep]
+name = "tiny"
+[axes]
+enhancers = ["passthrough"]
+noise = ["white"]
+snr_db = [0, 10]
+seeds = [0]
+[fixed]
+duration_s = {duration}
+"""
+
+
+def _sweep(duration=1.0, extra=""):
+    return parse_sweep(TOML.format(duration=duration) + extra, source="tiny.toml")
+
+
+def _run(sweep, out, **kw):
+    return run_sweep(sweep, out, workers=1, report=False, progress=False, **kw)
+
+
+def _count(out, table="results"):
+    with sqlite3.connect(out / "results.sqlite") as db:
+        return db.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
+
+
+def test_rerunning_the_same_sweep_resumes(tmp_path):
+    first = _run(_sweep(), tmp_path, limit=1)
+    again = _run(_sweep(), tmp_path)  # a larger --limit is how a sweep resumes
+    assert (first.n_computed, again.n_computed, again.n_skipped) == (1, 1, 1)
+    more_seeds = _run(_sweep(), tmp_path, seed=3)  # --seed adds samples of the same sweep
+    assert more_seeds.n_computed == 2 and _count(tmp_path) == 4
+
+
+def test_a_changed_sweep_is_refused_with_what_changed(tmp_path):
+    _run(_sweep(), tmp_path)
+    with pytest.raises(SweepVersionError, match=r"duration_s 1\.0 -> 2\.0.*--new-version"):
+        _run(_sweep(duration=2.0), tmp_path)
+    with pytest.raises(SweepVersionError, match=r"snr_mode"):
+        _run(_sweep(extra='snr_mode = "active"\n'), tmp_path)
+    assert _count(tmp_path) == 2  # nothing written by the refused runs
+
+
+def test_new_version_moves_the_old_rows_aside(tmp_path):
+    _run(_sweep(), tmp_path)
+    _run(_sweep(duration=2.0), tmp_path, new_version=True)
+    assert _count(tmp_path) == 2 and _count(tmp_path, "results_previous") == 2
+    with sqlite3.connect(tmp_path / "results.sqlite") as db:
+        versions = {r[0] for r in db.execute("SELECT sweep_version FROM results")}
+        old = {r[0] for r in db.execute("SELECT sweep_version FROM results_previous")}
+    assert versions == {config_version(sweep_config(_sweep(duration=2.0)))}
+    assert old == {config_version(sweep_config(_sweep()))} and old != versions
+
+
+def test_changed_enhancer_params_count_as_a_new_version():
+    base = sweep_config(parse_sweep(TOML.format(duration=1.0).replace('"passthrough"', '"ss"')))
+    tuned = sweep_config(
+        parse_sweep(TOML.format(duration=1.0).replace('"passthrough"', '"ss"') + "[enhancer_params.ss]\nalpha = 0.95\n")
+    )
+    assert config_version(base) != config_version(tuned)
+    assert "enhancer_params.ss" in describe_changes(base, tuned)
+
+
+def test_the_report_never_averages_two_versions(tmp_path):
+    _run(_sweep(), tmp_path)
+    with sqlite3.connect(tmp_path / "results.sqlite") as db:  # a row of another version slipped in
+        db.execute("UPDATE results SET sweep_version = 'other' WHERE snr_in_db = 10")
+    write_store_report(tmp_path)
+    text = (tmp_path / "report" / "summary.md").read_text()
+    assert "1 rows of other versions not shown" in text
+    assert "rows**: 1 (1 ok" in text
+
+
+def test_cli_refusal_is_one_line_with_exit_code_2(tmp_path, capsys):
+    sweep_file = tmp_path / "tiny.toml"
+    sweep_file.write_text(TOML.format(duration=1.0))
+    out = tmp_path / "out"
+    assert main(["bench", "run", str(sweep_file), "--out", str(out), "--workers", "1", "--no-report"]) == 0
+    sweep_file.write_text(TOML.format(duration=1.5))
+    capsys.readouterr()
+    assert main(["bench", "run", str(sweep_file), "--out", str(out), "--workers", "1", "--no-report"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "duration_s 1.0 -> 1.5" in err[0] and "new --out" in err[0]
