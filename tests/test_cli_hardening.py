@@ -139,7 +139,7 @@ def test_source_on_a_mic_is_an_error_not_a_nan_rir(tmp_path, capsys):
         argv = [*RIR_ROOM, "--source", "2", "2.5", str(1.5 + offset_m), "--mic", "2", "2.5", "1.5",
                 "--out", str(out)]
         assert main(argv) == 2
-        _one_error_line(capsys, "--source", "at least 1 mm from every mic")
+        _one_error_line(capsys, "--source", "at least 1 mm from every mic")  # the renderer's rule
         assert not (out / "rir.npy").exists()
 
 

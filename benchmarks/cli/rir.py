@@ -26,8 +26,6 @@ _OPTIONS = {
     "mics_m": "--mic", "length_s": "--length", "max_order": "--max-order", "method": "--method",
     "spacing_m": "--spacing", "center_m": "--pair-center",
 }
-# A source closer than this to a mic makes the 1/(4 pi r) direct path blow up (NaN at r=0).
-MIN_SOURCE_MIC_DISTANCE_M = 1e-3
 
 FORMATS = ("npy", "wav", "both")
 
@@ -106,13 +104,6 @@ def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
     return int(math.ceil(c * rt60_s / r - 1))
 
 
-def _check_source_off_mics(source, mics: np.ndarray) -> None:
-    """The same rule (and words) as ``simulate``: a source at least 1 mm from every mic."""
-    dist = np.linalg.norm(np.atleast_2d(mics) - np.asarray(source, dtype=float), axis=1)
-    if np.min(dist) < MIN_SOURCE_MIC_DISTANCE_M:
-        raise ParameterError("--source", tuple(source), "a point at least 1 mm from every mic")
-
-
 def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
     """Warn when the measured T30 misses --rt60 by more than 10 % (uncalibrated methods only)."""
     from scenesim.rt60 import measure_rt60
@@ -156,7 +147,6 @@ def run(args) -> int:
         mics = np.asarray(args.mic, dtype=float)
     if args.format not in FORMATS:
         raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
-    _check_source_off_mics(args.source, mics)
     # The saved RIR depends only on the user's settings; --compare picks its own order for
     # the comparison and must not change what is written.
     max_order = args.max_order
