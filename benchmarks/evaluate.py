@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import time
-import traceback
 import warnings
 from collections.abc import Mapping
 from typing import Any
@@ -30,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks import metrics as M
+from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.reverb_metrics import (
     REVERB_INPUT_COLUMNS,
     REVERB_OUTPUT_COLUMNS,
@@ -117,16 +117,6 @@ def inband_hz(rendered) -> tuple[float, float]:
     if band is not None:
         return float(band[0]), float(band[1])
     return INBAND_HZ[0], min(INBAND_HZ[1], 7.0 * int(rendered.fs) / 16.0)
-
-
-def _exc_text(exc: BaseException) -> str:
-    """One line: exception type, message and the innermost frame (a traceback summary)."""
-    text = f"{type(exc).__name__}: {exc}"
-    frames = traceback.extract_tb(exc.__traceback__)
-    if frames:
-        f = frames[-1]
-        text += f" (at {f.filename.rsplit('/', 1)[-1]}:{f.lineno} in {f.name})"
-    return text
 
 
 def _try(errors: list[str], label: str, func, *args, **kwargs):

@@ -28,6 +28,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+from benchmarks.watchdog import exit_when_orphaned
 from scenesim.errors import ParameterError, ScenesimError
 
 EXECUTORS = ("local", "dask")
@@ -72,13 +73,32 @@ class LocalExecutor:
         ctx = multiprocessing.get_context("forkserver")
         if self.preload:
             ctx.set_forkserver_preload(list(self.preload))
-        self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        # Workers end themselves once this process is gone (kill -9 leaves no orphans).
+        self._pool = ProcessPoolExecutor(
+            max_workers=self.workers, mp_context=ctx, initializer=exit_when_orphaned, initargs=(os.getpid(),)
+        )
         with _environ(SINGLE_THREAD_ENV):
             # Launch every worker now: the fork server starts with this environment.
             for fut in [self._pool.submit(_ready) for _ in range(self.workers)]:
                 fut.result()
 
     def run(self, fn, tasks) -> Iterator[tuple[Any, Any]]:
+        # Ctrl-C or SIGTERM while waiting here, or the caller abandoning the loop (an
+        # exception in its body closes this generator): stop the workers now, so that
+        # close() does not wait for tasks nobody will read.
+        try:
+            yield from self._run(fn, tasks)
+        except (KeyboardInterrupt, GeneratorExit):
+            self.terminate_workers()
+            raise
+
+    def terminate_workers(self) -> None:
+        """SIGTERM every worker process of the pool (their tasks are lost; the pool is broken)."""
+        for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
+            with contextlib.suppress(OSError, ValueError):
+                proc.terminate()
+
+    def _run(self, fn, tasks) -> Iterator[tuple[Any, Any]]:
         pending = list(tasks)[::-1]
         running: dict[Any, Any] = {}
         pool = self._pool
@@ -135,7 +155,8 @@ class DaskExecutor:
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - dask is an optional extra
             raise ExecutorError(
-                "the dask executor needs dask[distributed]: pip install 'scenesim[dask]'"
+                "the dask executor needs dask[distributed]: pip install 'dask[distributed]' "
+                "(or, in a scenesim checkout: pip install -e '.[dask]')"
             ) from exc
         self.scheduler = scheduler
         self._cluster = None

@@ -21,7 +21,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.executors import EXECUTORS, make_executor
+from benchmarks.progress import LineProgress
+from benchmarks.signals import interrupted
 from benchmarks.store import ResultStore
 from benchmarks.store_report import report_meta, write_store_report
 from benchmarks.sweep import Condition, Sweep, load_sweep
@@ -31,7 +34,6 @@ from benchmarks.worker import (  # re-exported: the runner's public names before
     EnhancerSpec,
     UnitTask,
     _condition_columns,
-    _exc_text,
     build_enhancer,
     build_scene,
     build_sensors,
@@ -187,9 +189,9 @@ def run_sweep(
                 finally:
                     ex.close()
             status = "finished"
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM under signals.sigterm_as_interrupt
             status = "interrupted"
-            raise
+            raise interrupted(exc, n_written=tally.n_rows, n_stored=len(store.done_keys()), store_path=store.path) from None
         finally:
             store.finish_run(run_id, status=status, n_rows_written=tally.n_rows, n_errors=tally.n_errors)
         report_files, report_error = _try_report(out_dir, store) if report else ((), None)
@@ -250,7 +252,7 @@ class _Tally:
 def _execute(ex, tasks, store: ResultStore, tally: _Tally, *, run_id: str, version: str, name: str, progress: bool) -> None:
     """Run every task on executor ``ex``; write each condition's rows as its unit finishes."""
     units = plan_units(tasks, workers=ex.workers or 1)
-    with _progress(len(tasks), name, enabled=progress) as bar:
+    with _progress(len(tasks), name, enabled=progress, workers=ex.workers) as bar:
         for unit, outcome in ex.run(run_unit, units):
             for rows in _rows_of(unit, outcome, run_id, version):
                 # one transaction per condition: a kill never leaves half of one
@@ -333,9 +335,11 @@ class _NullBar:
         return False
 
 
-def _progress(total: int, name: str, *, enabled: bool):
+def _progress(total: int, name: str, *, enabled: bool, workers: int | None = None):
     if not enabled:
         return _NullBar()
+    if not sys.stderr.isatty():  # a log file: tqdm would stay silent; print lines instead
+        return LineProgress(total, name, workers=workers)
     from tqdm.auto import tqdm
 
     # disable=None: tqdm switches itself off when stderr is not a terminal.

@@ -125,10 +125,8 @@ EXTRA_COLUMNS: tuple[tuple[str, str], ...] = (
 
 def _evaluate_columns() -> tuple[tuple[str, str], ...]:
     """Columns of :data:`benchmarks.evaluate.ROW_COLUMNS` not listed above (kept in step with it)."""
-    try:
-        from benchmarks.evaluate import ROW_COLUMNS
-    except ImportError:  # pragma: no cover - evaluate is part of the package
-        return ()
+    from benchmarks.evaluate import ROW_COLUMNS
+
     have = {n for n, _ in CONTRACT_COLUMNS + EXTRA_COLUMNS}
     return tuple((n, t) for n, t in ROW_COLUMNS.items() if n not in have)
 

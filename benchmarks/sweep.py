@@ -517,11 +517,6 @@ def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condit
 # -- loading -------------------------------------------------------------------------------
 
 
-def preset_names() -> tuple[str, ...]:
-    """Names of the preset sweeps shipped with the package."""
-    return PRESETS
-
-
 def preset_text(name: str) -> str:
     """The TOML text of a shipped preset."""
     if name not in PRESETS:

@@ -17,13 +17,12 @@ import json
 import os
 import socket
 import time
-import traceback
 import warnings
 from collections import OrderedDict
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
+from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.store import package_versions
 from benchmarks.sweep import Condition
 from scenesim.geometry import SPEED_OF_SOUND_MPS
@@ -288,12 +287,6 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
 @functools.lru_cache(maxsize=1)
 def _scenesim_version() -> str | None:
     return package_versions(("scenesim",))["scenesim"]
-
-
-def _exc_text(exc: BaseException) -> str:
-    tb = traceback.extract_tb(exc.__traceback__)
-    where = f" (at {Path(tb[-1].filename).name}:{tb[-1].lineno} in {tb[-1].name})" if tb else ""
-    return f"{type(exc).__name__}: {exc}{where}"
 
 
 def _condition_columns(cond: Condition) -> dict[str, Any]:

@@ -16,8 +16,8 @@ from scipy.signal import butter, sosfilt
 
 from data_recipes.artificial_voice import TALKERS, VOICE_VERSION, artificial_voice
 from data_recipes.ltass import ltass_psd_db
-from scenesim.cache import array_key, cached_array
 from scenesim.errors import ParameterError
+from scenesim.memo import array_key, cached_array
 from scenesim.validate import check_choice, check_fs, check_int
 
 #: RMS of every synthesized channel (-20 dBFS); the benchmark rescales to the wanted SNR.
@@ -279,7 +279,7 @@ def _artificial_babble_bank(fs: int) -> tuple[SpeechPoolItem, ...]:
     """One :data:`BABBLE_BANK_S`-second clip per built-in talker (seed ``BABBLE_BANK_SEED`` + index).
 
     Deterministic and slow (~2 s), so the stacked bank ``(n_talkers, n_samples)`` also goes
-    through :func:`scenesim.cache.cached_array` (on disk when ``$SCENESIM_CACHE`` is set),
+    through :func:`scenesim.memo.cached_array` (on disk when ``$SCENESIM_CACHE`` is set),
     keyed by everything it depends on: ``fs``, :data:`BABBLE_BANK_S`, the talkers, their
     seeds and :data:`~data_recipes.artificial_voice.VOICE_VERSION`.
     """

@@ -63,7 +63,9 @@ class Clip:
     files: tuple[str, ...]
 
 
-def open_data(data_dir: str | os.PathLike | None = None, *, fs: int = 16000) -> DataSource:
+def open_data(
+    data_dir: str | os.PathLike | None = None, *, fs: int = 16000, require_speech: bool = False
+) -> DataSource:
     """Open the data source: ``data_dir`` > ``$SCENESIM_DATA`` > built-in.
 
     Parameters
@@ -72,17 +74,21 @@ def open_data(data_dir: str | os.PathLike | None = None, *, fs: int = 16000) -> 
         A data directory with ``speech/`` and/or ``noise/``.
     fs : int
         Sampling rate (Hz) every clip is delivered at.
+    require_speech : bool
+        The directory was chosen explicitly (``--data-dir``): no usable speech in it is an
+        error instead of a fallback to the built-in voice.
 
     Raises
     ------
     DataError
-        If the directory does not exist or holds no usable audio at all.
+        If the directory does not exist or holds no usable audio at all (or, with
+        ``require_speech``, no usable speech).
     """
     fs = check_fs(fs)
     if data_dir is None:
         env = os.environ.get(DATA_ENV, "").strip()
         data_dir = env or None
-    return DataSource(None if data_dir is None else Path(data_dir), fs=fs)
+    return DataSource(None if data_dir is None else Path(data_dir), fs=fs, require_speech=require_speech)
 
 
 class DataSource:
@@ -103,7 +109,7 @@ class DataSource:
     Instances pickle (for process pools / Dask): decoded audio is cached per instance.
     """
 
-    def __init__(self, root: Path | None, *, fs: int = 16000):
+    def __init__(self, root: Path | None, *, fs: int = 16000, require_speech: bool = False):
         self.fs = check_fs(fs)
         self.root = None if root is None else Path(root).expanduser().resolve()
         self._cache: dict[Path, np.ndarray] = {}
@@ -121,6 +127,11 @@ class DataSource:
                 raise DataError(
                     f"no usable audio in {self.root}: expected speech/*.wav|flac and "
                     "noise/<type>[_<anything>].wav|flac"
+                )
+            if not scan.speech and require_speech:
+                raise DataError(
+                    f"no usable speech in {self.root}/speech (see the skipped files above); add "
+                    ".wav/.flac speech there, or leave out --data-dir for the built-in voice"
                 )
             if not scan.speech:
                 warnings.warn(

@@ -214,7 +214,8 @@ def hop_of(enhancer, fs: int | None = None) -> int | None:
 
     Looks for ``hop``, ``hop_samples`` or ``block_len`` on the enhancer, then on its params.
 
-    A callable ``hop(fs)`` is called with ``fs`` when given.
+    A callable ``hop(fs)`` is called with ``fs`` when given; what it raises propagates (a
+    hop that cannot be computed is the enhancer's error to report, not a silent "no hop").
     """
     for holder in (enhancer, getattr(enhancer, "params", None)):
         for attr in ("hop", "hop_samples", "block_len"):
@@ -222,10 +223,7 @@ def hop_of(enhancer, fs: int | None = None) -> int | None:
             if callable(value):
                 if fs is None:
                     continue
-                try:
-                    value = value(fs)
-                except Exception:
-                    continue
+                value = value(fs)
             if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > 0:
                 return int(value)
     return None

@@ -28,7 +28,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import lfilter
 
 from enhancers.filterbank import FilterBank
-from scenesim.cache import array_key, cached_array
+from scenesim.memo import array_key, cached_array
 
 __all__ = [
     "MS1994State",
@@ -191,7 +191,7 @@ def calibrate_omin(
     smoother and minimum search; the expectation is the mean over time (after the first
     ``W + 2`` sub-windows) and over the interior bins (DC and Nyquist get their own
     value).  Cached per argument set (``functools.lru_cache`` in the process, and on disk
-    through :func:`scenesim.cache.cached_array` when ``$SCENESIM_CACHE`` is set; the key
+    through :func:`scenesim.memo.cached_array` when ``$SCENESIM_CACHE`` is set; the key
     holds every argument and :data:`OMIN_VERSION`); about 50-300 ms per computation.
     """
     return _calibrate_cached(float(alpha), int(n_sub), int(sub_len), int(frame_len), int(hop), str(window),

@@ -225,7 +225,7 @@ class SpectralSubtraction(_SubtractionBase):
             """The thesis' listed values as a named preset: D = 200 frames (8 x 25), omin = 0.99.
 
             The thesis gives "D = 200, omin = 0.99" without units; read as frames, D is 1.6 s
-            at an 8 ms hop.  ``omin = 0.99`` is far below the calibrated ~1.3, so this preset
+            at an 8 ms hop.  ``omin = 0.99`` is far below the calibrated ~1.77 (interior bins), so this preset
             under-estimates the noise; it is kept for reproduction, not as the default.
             """
             values = dict(n_sub=8, sub_len=25, omin=0.99)

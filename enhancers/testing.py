@@ -23,7 +23,8 @@ Expected failures are declared, with a reason, either on the class::
         conformance_expected_failures = {"streaming_equals_batch": "batch uses look-ahead"}
 
 or per call (``expected_failures={...}``).  An expected failure that fails is reported
-as ``"xfail: <reason>"``; one that passes as ``"xpass"`` (not an error).
+as ``"xfail: <reason>"``.  Expected failures are strict, as scikit-learn's: one that
+passes is an error (the enhancer was fixed, so its declaration must go).
 
 Heuristic for bad parameters (``bad_params``): from each ``Params`` field's type
 annotation (``X | None`` counts as ``X``), every ``float``/``int`` field must reject NaN
@@ -530,8 +531,8 @@ def enhancer_checks(obj) -> Iterator[tuple[str, Callable[[], None]]]:
 def check_enhancer(obj, *, expected_failures: Mapping[str, str] | None = None) -> dict[str, str]:
     """Run every check on ``obj`` (an enhancer class or instance).
 
-    Returns ``{check: "passed" | "xfail: <reason>" | "xpass"}``; raises
-    :class:`ConformanceError` listing every unexpected failure.
+    Returns ``{check: "passed" | "xfail: <reason>"}``; raises :class:`ConformanceError`
+    listing every unexpected failure and every declared failure that passed (strict xfail).
     """
     expected = expected_failures_of(obj, expected_failures)
     report: dict[str, str] = {}
@@ -546,7 +547,12 @@ def check_enhancer(obj, *, expected_failures: Mapping[str, str] | None = None) -
                 failures.append(f"{name}: {type(exc).__name__}: {exc}")
                 report[name] = "failed"
         else:
-            report[name] = "xpass" if name in expected else "passed"
+            if name in expected:
+                failures.append(f"{name}: passes but is declared an expected failure "
+                                f"({expected[name]!r}); remove the declaration")
+                report[name] = "xpass"
+            else:
+                report[name] = "passed"
     if failures:
         raise ConformanceError(
             f"{getattr(obj, 'name', obj)!s} failed {len(failures)} conformance check(s):\n  "
@@ -558,7 +564,7 @@ def check_enhancer(obj, *, expected_failures: Mapping[str, str] | None = None) -
 def parametrize_with_checks(objs, *, expected_failures: Mapping[str, str] | None = None):
     """A ``pytest.mark.parametrize("enhancer, check", ...)`` over every object x check.
 
-    Declared expected failures become ``xfail`` marks with their reasons.
+    Declared expected failures become strict ``xfail`` marks with their reasons.
     """
     import pytest  # only needed when used inside a test suite
 
@@ -567,6 +573,7 @@ def parametrize_with_checks(objs, *, expected_failures: Mapping[str, str] | None
         inst = _instance(obj)
         expected = expected_failures_of(inst, expected_failures)
         for name, check in CHECKS.items():
-            marks = [pytest.mark.xfail(reason=expected[name], strict=False)] if name in expected else []
+            # strict: a check that starts passing fails the suite until the declaration is dropped
+            marks = [pytest.mark.xfail(reason=expected[name], strict=True)] if name in expected else []
             params.append(pytest.param(inst, check, id=f"{inst.name}-{name}", marks=marks))
     return pytest.mark.parametrize("enhancer, check", params)

@@ -20,6 +20,7 @@ import soundfile as sf
 from scipy import signal as sps
 
 from scenesim.errors import DataError, ParameterError
+from scenesim.files import chmod_as_umask
 from scenesim.validate import check_choice, check_fs
 
 SUBTYPES = ("FLOAT", "DOUBLE", "PCM_16", "PCM_24", "PCM_32")
@@ -65,6 +66,10 @@ def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
     if fs is not None:
         fs = check_fs(fs)
     path = Path(path)
+    if not path.exists():
+        raise DataError(f"no such file: {path}")
+    if path.is_dir():
+        raise DataError(f"{path} is a directory, not an audio file")
     try:
         data, file_fs = sf.read(str(path), dtype="float64", always_2d=True)
     except (sf.LibsndfileError, RuntimeError, OSError) as exc:
@@ -131,6 +136,7 @@ def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = F
     try:
         # The temporary name has no audio extension, so the format is given explicitly.
         sf.write(tmp, arr.T, fs, subtype=subtype, format=fmt)
+        chmod_as_umask(tmp)  # mkstemp made it 0600; the user's umask decides
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

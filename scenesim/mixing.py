@@ -127,7 +127,19 @@ def noise_gain_for_snr(
         raise ParameterError("speech_ref", speech_ref, "a signal with non-zero power")
     if p_n <= 0.0:
         raise ParameterError("noise_ref", noise_ref, "a signal with non-zero power")
-    return float(np.sqrt(p_s / (p_n * 10.0 ** (snr_db / 10.0))))
+    return noise_gain_from_powers(p_s, p_n, snr_db)
+
+
+def noise_gain_from_powers(speech_power: float, noise_power: float, snr_db: float) -> float:
+    """Thesis eq. 7.1 solved for the noise amplitude gain: ``g = sqrt(P_s / (P_n 10^(snr_db/10)))``.
+
+    The one place the formula is written (:func:`noise_gain_for_snr` and
+    ``SceneImages.mix`` call it).  Powers are mean squares, > 0.
+
+    >>> noise_gain_from_powers(1.0, 4.0, 0.0)
+    0.5
+    """
+    return float(np.sqrt(speech_power / (noise_power * 10.0 ** (snr_db / 10.0))))
 
 
 def mix_at_snr(

@@ -45,7 +45,13 @@ from scenesim.cache import cached_rir, canonical, stable_hash
 from scenesim.errors import ParameterError
 from scenesim.freefield import plane_wave, point_source
 from scenesim.geometry import SPEED_OF_SOUND_MPS, MicPair
-from scenesim.mixing import active_speech_power, bandlimit, check_band, signal_power
+from scenesim.mixing import (
+    active_speech_power,
+    bandlimit,
+    check_band,
+    noise_gain_from_powers,
+    signal_power,
+)
 from scenesim.noise_fields import (
     diffuse_noise,
     incoherent_noise,
@@ -448,7 +454,7 @@ class SceneImages:
             if self.noise_power <= 0.0:
                 raise ParameterError("noise_signals", "silent noise", "noise with non-zero power")
             # Thesis eq. 7.1, as in noise_gain_for_snr, with the powers computed once.
-            gain = float(np.sqrt(self.speech_power / (self.noise_power * 10.0 ** (snr / 10.0))))
+            gain = noise_gain_from_powers(self.speech_power, self.noise_power, snr)
         else:
             gain = 0.0
         noise = gain * self.noise_image

@@ -115,7 +115,8 @@ def test_errors_exit_2_with_a_message(tmp_path, capsys):
         )
         == 2
     )
-    assert "speech.position_m" in capsys.readouterr().err
+    err = capsys.readouterr().err  # names the option typed, and the source it placed
+    assert "--distance-m=5.0" in err and "speech source would be at" in err
     assert not (tmp_path / "x").exists()
 
 

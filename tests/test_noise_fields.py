@@ -46,7 +46,8 @@ def test_diffuse_coherence_matches_sinc(pair_or_spacing):
 
 def test_diffuse_keeps_unit_power_and_the_source_spectrum(rng):
     # Eigen mixing preserves each bin's power (E|X_i|^2 = E|N|^2): unit-variance white in,
-    # unit variance out (5 % tolerance: ~60 sigma of the estimator at 160000 samples).
+    # unit variance out (5 % tolerance: ~14 sigma of the estimator, whose std is
+    # sqrt(2 / N) = 0.35 % at N = 160000 samples).
     x = diffuse_noise(10 * FS, 0.0214, fs=FS, rng=rng)
     np.testing.assert_allclose(np.var(x, axis=1), 1.0, rtol=0.05)
     # A coloured mono source: channel spectra follow it (Welch PSD ratio within 1 dB

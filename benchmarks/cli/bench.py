@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import sqlite3
 import sys
 from pathlib import Path
 
+from benchmarks.cli.checks import check_store_readable, corrupt_store_error, prepare_out_dir
+from benchmarks.lock import run_lock
+from benchmarks.progress import slow_rir_warning
+from benchmarks.signals import sigterm_as_interrupt
 from scenesim.errors import ParameterError
 
 
@@ -24,7 +30,7 @@ def add_parser(subparsers) -> None:
         "write DIR/report.  Rerunning on the same --out computes only what is missing.",
     )
     run.add_argument("sweep", metavar="PRESET_OR_TOML", help="a preset (scenesim bench list) or a sweep .toml file")
-    run.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory (store + report)")
+    run.add_argument("--out", required=True, metavar="DIR", help="output directory (store + report)")
     run.add_argument("--executor", choices=("local", "dask"), default="local", help="where to run (default: local)")
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://10.0.0.5:8786 (with --executor dask)")
@@ -88,21 +94,31 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     sweep = load_sweep(args.sweep)
-    summary = run_sweep(
-        sweep,
-        args.out,
-        executor=args.executor,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        data_dir=args.data_dir,
-        limit=args.limit,
-        seed=args.seed,
-        retry_errors=args.retry_errors,
-        report=not args.no_report,
-        new_version=args.new_version,
-    )
+    if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
+        from data_recipes import open_data
+
+        open_data(args.data_dir, require_speech=True)
+    out = prepare_out_dir("--out", args.out)
+    slow = slow_rir_warning(sweep.conditions()[: args.limit])
+    if slow:
+        print(f"scenesim: warning: {slow}", file=sys.stderr)
+    with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
+        check_store_readable(out / "results.sqlite")  # a damaged store: say so before writing to it
+        summary = run_sweep(
+            sweep,
+            out,
+            executor=args.executor,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            data_dir=args.data_dir,
+            limit=args.limit,
+            seed=args.seed,
+            retry_errors=args.retry_errors,
+            report=not args.no_report,
+            new_version=args.new_version,
+        )
     for note in summary.warnings:
-        print(f"scenesim bench: warning: {note}", file=sys.stderr)
+        print(f"scenesim: warning: {note}", file=sys.stderr)
     print(f"scenesim bench: {sweep.name}: {summary.line()}", file=sys.stderr)
     print(f"results: {summary.store_path}")
     if summary.report_files:
@@ -121,12 +137,24 @@ def _run(args) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _store_errors(out_dir):
+    """sqlite's errors on a damaged ``results.sqlite`` as one line saying how to move it aside."""
+    from benchmarks.store import STORE_NAME
+
+    try:
+        yield
+    except sqlite3.DatabaseError as exc:
+        raise corrupt_store_error(Path(out_dir) / STORE_NAME, exc) from None
+
+
 def _report(args) -> int:
     from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
     from benchmarks.store_report import write_store_report
 
     count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
-    files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
+    with _store_errors(args.dir):
+        files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
     for f in files:
         print(f)
     return 0

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import warnings
 from pathlib import Path
 
 
@@ -30,7 +29,7 @@ def add_parser(subparsers) -> None:
         "noisex92: convert the NOISEX-92 files in --src.",
     )
     prep.add_argument("recipe", metavar="RECIPE", help="artificial-voice, local, cmu-arctic or noisex92")
-    prep.add_argument("--dest", type=Path, default=None, metavar="DIR",
+    prep.add_argument("--dest", default=None, metavar="DIR",
                       help="output data directory (default: $SCENESIM_CACHE/<recipe> or ~/.cache/scenesim/<recipe>)")
     prep.add_argument("--src", type=Path, default=None, metavar="DIR", help="input folder (local, noisex92)")
     prep.add_argument("--talkers", nargs="+", default=None, metavar="T", help="CMU ARCTIC voices, e.g. bdl slt")
@@ -46,21 +45,20 @@ def _list(args: argparse.Namespace) -> int:
     print("Data recipes:")
     for recipe in data_recipes.list_recipes():
         print(f"  {recipe.name:<17} {recipe.summary}")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        source = data_recipes.open_data(args.data_dir)
+    source = data_recipes.open_data(args.data_dir)  # its warnings: main's console lines
     print(f"\nData source: {source.description}")
     local = set(source.local_noise_types)
     print("Noise types: " + ", ".join(
         f"{t} ({'file' if t in local else 'synthesized'})" for t in source.noise_types()))
-    for w in caught:
-        print(f"warning: {w.message}")
     return 0
 
 
 def _prepare(args: argparse.Namespace) -> int:
     import data_recipes
+    from benchmarks.cli.checks import prepare_out_dir
 
+    if args.dest is not None:
+        args.dest = prepare_out_dir("--dest", args.dest, create=False)
     options = {}
     if args.src is not None:
         options["src"] = args.src
@@ -72,11 +70,7 @@ def _prepare(args: argparse.Namespace) -> int:
         options["base_url"] = args.base_url
     if args.fs is not None:
         options["fs"] = args.fs
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        manifest = data_recipes.prepare(args.recipe, args.dest, **options)
-    for w in caught:
-        print(f"warning: {w.message}")
+    manifest = data_recipes.prepare(args.recipe, args.dest, **options)  # warnings: main's console lines
     files = manifest.get("files") or (manifest.get("speech", []) + manifest.get("noise", []))
     where = manifest.get("dest") or (str(args.dest) if args.dest else manifest.get("root", ""))
     print(f"{args.recipe}: {len(files)} file(s) in {where}")

@@ -14,10 +14,12 @@ the input first (for enhancers with ``supported_fs``).
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file, options_named
 from enhancers.registry import get, make, with_geometry
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
@@ -36,7 +38,7 @@ def add_parser(subparsers):
         ),
     )
     p.add_argument("input", type=Path, metavar="IN", help="input audio (channel 0 = front/reference mic)")
-    p.add_argument("output", type=Path, metavar="OUT", help="output WAV (float samples)")
+    p.add_argument("output", metavar="OUT", help="output WAV (float samples)")
     p.add_argument("--enhancer", "-e", required=True, help="registry name, e.g. eb, ss, eb-ss, das, eb@1")
     p.add_argument(
         "--param", "-p", action="append", default=[], metavar="K=V",
@@ -72,12 +74,27 @@ def _parse_channels(text: str, n_available: int, path) -> list[int]:
     bad = [i for i in picks if not 0 <= i < n_available]
     if not picks or bad:
         raise ParameterError(
-            "--channels", text, f"indices in 0..{n_available - 1} ({path} has {n_available} channel(s))"
+            "--channels", text,
+            f"indices in 0..{n_available - 1} ({path} has {n_available} channel(s); e.g. --channels "
+            f"{','.join(str(i) for i in range(min(2, n_available)))})",
         )
     return picks
 
 
+def _suggest_channels(n_in: int) -> str:
+    return ",".join(str(i) for i in range(n_in))
+
+
 def run(args) -> int:
+    check_input_file("IN", args.input)
+    args.output = check_out_file("OUT", args.output)
+    import soundfile as sf
+
+    if args.output.suffix[1:].upper() not in sf.available_formats():  # before the work, not after
+        raise ParameterError("OUT", str(args.output), "a file name ending in .wav, .flac or another soundfile format")
+    if args.trace is not None:
+        check_out_file("--trace", args.trace)
+    check_cli_fs("--fs", args.fs)
     cls = get(args.enhancer)  # unknown names raise with "Did you mean ...?"
     params = cls.Params.coerce_strings(_parse_params(args.param))
     enhancer = make(args.enhancer, **params)
@@ -86,11 +103,12 @@ def run(args) -> int:
     if args.spacing_m is not None or args.c_mps is not None:
         if tags.needs_geometry:
             p = enhancer.params
-            enhancer = with_geometry(
-                enhancer,
-                spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
-                c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
-            )
+            with options_named({"spacing_m": "--spacing-m", "c_mps": "--c-mps"}):
+                enhancer = with_geometry(
+                    enhancer,
+                    spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
+                    c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
+                )
         else:
             notes.append(f"{enhancer.name} needs no geometry: --spacing-m/--c-mps ignored")
     elif tags.needs_geometry:
@@ -105,10 +123,18 @@ def run(args) -> int:
             notes.append(f"{enhancer.name} takes 1 channel: using channel 0 (reference mic) of {x.shape[0]}")
             x = x[0:1]
         else:
+            way_out = (f"; pick {n_in} with --channels {_suggest_channels(n_in)}" if x.shape[0] > n_in
+                       else f"; record with {n_in} mics or choose a 1-channel enhancer such as ss")
             raise DataError(
                 f"{args.input} has {x.shape[0]} channel(s) but enhancer {enhancer.name!r} expects "
-                f"{n_in} (channel 0 = front/reference mic)"
+                f"{n_in} (channel 0 = front/reference mic){way_out}"
             )
+    if x.shape[1] <= tags.latency_samples:
+        warnings.warn(
+            f"{args.input} has {x.shape[1]} samples, no more than {enhancer.name}'s latency of "
+            f"{tags.latency_samples} samples: the output holds almost nothing of the input",
+            stacklevel=1,
+        )
 
     result = enhancer.process(x, fs)
     write_audio(args.output, result.output, fs, subtype="FLOAT")

@@ -28,9 +28,16 @@ import argparse  # noqa: E402
 import importlib  # noqa: E402
 import sys  # noqa: E402
 
+from benchmarks.cli.console import cli_warnings  # noqa: E402
 from scenesim.errors import ScenesimError  # noqa: E402
 
 _COMMANDS = ("bench", "simulate", "enhance", "data", "rir", "plugin")
+
+
+def _version() -> str:
+    from scenesim import __version__
+
+    return __version__
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -38,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="scenesim",
         description="Simulate hands-free phone scenes and benchmark speech enhancers.",
     )
+    parser.add_argument("--version", action="version", version=f"scenesim {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in _COMMANDS:
         importlib.import_module(f"benchmarks.cli.{name}").add_parser(sub)
@@ -48,14 +56,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        with cli_warnings():
+            return int(args.func(args) or 0)
     except ScenesimError as exc:
         # Our own errors are user-facing: one clear line, no traceback.
         print(f"scenesim: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("scenesim: interrupted", file=sys.stderr)
-        return 130
+    except OSError as exc:  # a file-system refusal the commands did not foresee: still one line
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"scenesim: error: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as exc:  # a sweep's RunInterrupted says what is kept and how to resume
+        print(f"scenesim: {str(exc) or 'interrupted'}", file=sys.stderr)
+        return getattr(exc, "exit_code", 130)
 
 
 if __name__ == "__main__":

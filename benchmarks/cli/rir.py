@@ -7,13 +7,25 @@ float WAV, one channel per mic), ``rir.json`` (the settings and room), and with
 
 from __future__ import annotations
 
-import json
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.cli.checks import check_cli_fs, options_named, prepare_out_dir
 from scenesim.errors import ParameterError
+from scenesim.files import write_json_atomic
+
+# The default --rt60-method is only approximate; past this relative miss of the measured
+# T30 the user is told to use the calibrated method.
+RT60_WARN_REL = 0.10
+# Library parameter names -> the options that set them (errors name what was typed).
+_OPTIONS = {
+    "dims_m": "--dims", "absorption": "--absorption", "rt60_s": "--rt60", "source_m": "--source",
+    "mics_m": "--mic", "length_s": "--length", "max_order": "--max-order", "method": "--method",
+    "spacing_m": "--spacing", "center_m": "--pair-center",
+}
 
 FORMATS = ("npy", "wav", "both")
 
@@ -92,37 +104,67 @@ def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
     return int(math.ceil(c * rt60_s / r - 1))
 
 
+def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
+    """Warn when the measured T30 misses --rt60 by more than 10 % (uncalibrated methods only)."""
+    from scenesim.rt60 import measure_rt60
+
+    if args.rt60 is None or args.rt60_method == "calibrated":
+        return
+    try:
+        t30 = float(np.mean(measure_rt60(h, fs, method="T30")))
+    except ParameterError:  # too short a RIR to fit T30: nothing to compare
+        return
+    miss = t30 / args.rt60 - 1.0
+    if abs(miss) > RT60_WARN_REL:
+        warnings.warn(
+            f"the measured T30 of this RIR is {t30:.3f} s, {100 * miss:+.0f} % off --rt60 {args.rt60:g} s "
+            f"(--rt60-method {args.rt60_method} is an approximation); use --rt60-method calibrated "
+            f"for a room whose measured T30 matches",
+            stacklevel=2,
+        )
+
+
 def run(args) -> int:
     from scenesim.geometry import DEFAULT_SPACING_M, MicPair
     from scenesim.render import room_rir
 
+    check_cli_fs("--fs", args.fs)
+    out = prepare_out_dir("--out", args.out)
     absorption = None
     if args.absorption is not None:
         if len(args.absorption) not in (1, 6):
-            raise ParameterError("absorption", args.absorption, "1 or 6 values")
+            raise ParameterError("--absorption", args.absorption, "1 or 6 values")
         absorption = args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
-    room = _build_room(args, absorption)
+    with options_named(_OPTIONS):
+        room = _build_room(args, absorption)
     if args.pair_center is not None:
         spacing = DEFAULT_SPACING_M if args.spacing is None else args.spacing
-        mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
+        with options_named(_OPTIONS):
+            mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
     else:
         if args.spacing is not None:
-            raise ParameterError("spacing", args.spacing, "--spacing only together with --pair-center")
+            raise ParameterError("--spacing", args.spacing, "--spacing only together with --pair-center")
         mics = np.asarray(args.mic, dtype=float)
     if args.format not in FORMATS:
         raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
+    # The saved RIR depends only on the user's settings; --compare picks its own order for
+    # the comparison and must not change what is written.
     max_order = args.max_order
-    if args.compare and max_order is None:
-        max_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
     directivity = _directivity(args)
     hybrid_kw = {"mixing_time_s": args.mixing_time, "seed": args.seed} if args.method == "hybrid" else {}
-    h = room_rir(
-        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
-        method=args.method, highpass_hz=args.highpass if args.highpass else None,
-        directivity=directivity, **hybrid_kw,
-    )
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    with options_named(_OPTIONS):
+        h = room_rir(
+            room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+            method=args.method, highpass_hz=args.highpass if args.highpass else None,
+            directivity=directivity, **hybrid_kw,
+        )
+    if not np.all(np.isfinite(h)):
+        raise ParameterError("--source/--mic", tuple(args.source), "positions giving a finite RIR")
+    _warn_rt60_miss(h, args.fs, args)
+    # --compare uses pyroomacoustics' inverse-Sabine order unless --max-order was given.
+    compare_order = max_order
+    if args.compare and compare_order is None:
+        compare_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
     written = []
     if args.format in ("npy", "both"):
         np.save(out / "rir.npy", h)
@@ -155,25 +197,25 @@ def run(args) -> int:
     }
     meta.update(_band_meta(room))
     meta["highpass_hz"] = args.highpass if args.highpass else None
-    (out / "rir.json").write_text(json.dumps(meta, indent=2))
+    write_json_atomic(out / "rir.json", meta)
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
           f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
     if args.compare and not room.is_flat:
-        written += _compare_bands(room, args, mics, max_order, out)
+        written += _compare_bands(room, args, mics, compare_order, out)
     elif args.compare:
         from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
         # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
         method = "auto" if args.method == "hybrid" else args.method
         check = compare_with_pyroomacoustics(
-            room, args.source, mics, fs=args.fs, max_order=max_order, method=method
+            room, args.source, mics, fs=args.fs, max_order=compare_order, method=method
         )
         numbers = check.to_dict()
-        (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
+        write_json_atomic(out / "crosscheck.json", numbers)
         plot_crosscheck(check, path=out / "crosscheck.png")
         written += [out / "crosscheck.json", out / "crosscheck.png"]
-        print(f"pyroomacoustics 0.10.1 cross-check (max_order {max_order}, {check.n_images} images):")
+        print(f"pyroomacoustics 0.10.1 cross-check (max_order {compare_order}, {check.n_images} images):")
         print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
         print(f"  argmax equal        {check.argmax_equal}")
         err = check.inter_mic_delay_error_samples
@@ -184,11 +226,11 @@ def run(args) -> int:
         print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
               f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
         if directivity is not None:
-            numbers["directivity"] = _compare_directivity(args, room, mics, max_order, directivity)
-            (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
+            numbers["directivity"] = _compare_directivity(args, room, mics, compare_order, directivity)
+            write_json_atomic(out / "crosscheck.json", numbers)
         if args.method == "hybrid":
-            numbers["hybrid"] = _compare_hybrid(args, room, mics, max_order, directivity, h)
-            (out / "crosscheck.json").write_text(json.dumps(numbers, indent=2))
+            numbers["hybrid"] = _compare_hybrid(args, room, mics, compare_order, directivity, h)
+            write_json_atomic(out / "crosscheck.json", numbers)
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -254,7 +296,7 @@ def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
         print("  air ISO 9613-1      " + " ".join(f"{v:7.2f}" for v in ours) + " dB/km (used on both sides)")
         print("  air pra table       " + " ".join(f"{v:7.2f}" for v in theirs) + " dB/km (its own coarse class)")
     path = out / "crosscheck.json"
-    path.write_text(json.dumps(numbers, indent=2))
+    write_json_atomic(path, numbers)
     return [path]
 
 

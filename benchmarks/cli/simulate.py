@@ -11,16 +11,20 @@ With a sensor model (``--mic-gain-db``, ``--mic-phase-deg``, ``--mic-highpass-hz
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 from scipy import signal as sps
 
+from benchmarks.cli.checks import (
+    check_cli_fs,
+    check_input_file,
+    check_snr_db,
+    prepare_out_dir,
+)
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import ParameterError
+from scenesim.files import write_json_atomic
 from scenesim.geometry import MicPair
 from scenesim.room import ShoeBox
 from scenesim.scene import (
@@ -54,7 +58,7 @@ def add_parser(subparsers):
         description=HELP,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output directory")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument(
         "--speech", type=Path, metavar="FILE", help="clean speech file (channel 0 is used)"
     )
@@ -190,16 +194,16 @@ def generated_noise(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
     return x / max(float(np.std(x)), 1e-300)
 
 
-def _write_json_atomic(path: Path, data: dict) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            json.dump(data, fh, indent=2, sort_keys=True)
-            fh.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+# Scene/room parameter names -> the options that set them, so an error names what was typed.
+_OPTION_OF = {
+    "distance_m": "--distance-m",
+    "spacing_m": "--spacing-m",
+    "center_m": "--pair-center",
+    "dims_m": "--room",
+    "rt60_s": "--rt60",
+    "sensor_noise_db": "--sensor-noise-db",
+    "seed": "--seed",
+}
 
 
 def build_sensors(args) -> SensorModel | None:
@@ -224,7 +228,28 @@ def build_sensors(args) -> SensorModel | None:
 
 
 def build_scene(args) -> Scene:
-    """The :class:`Scene` described by the command-line arguments."""
+    """The :class:`Scene` described by the command-line arguments (errors name the options)."""
+    try:
+        return _build_scene(args)
+    except ParameterError as exc:
+        if exc.name.endswith("position_m"):  # a source placed outside the room / on a mic
+            which, az = ("speech", args.speech_az) if exc.name.startswith("speech") else ("noise", args.noise_az)
+            try:
+                where = "; the {} source would be at ({})".format(
+                    which, ", ".join(f"{float(v):.3f}" for v in exc.value))
+            except (TypeError, ValueError):  # no position to show
+                where = ""
+            raise ParameterError(
+                "--distance-m", args.distance_m,
+                f"a distance (with --{which}-az {az:g}) giving {exc.allowed}{where}",
+            ) from None
+        option = _OPTION_OF.get(exc.name.rsplit(".", 1)[-1])
+        if option is None:
+            raise
+        raise ParameterError(option, exc.value, exc.allowed) from None
+
+
+def _build_scene(args) -> Scene:
     room = None
     if (args.rt60 is None) != (args.room is None):
         raise ParameterError(
@@ -260,10 +285,16 @@ def build_scene(args) -> Scene:
 
 
 def run(args) -> int:
+    check_cli_fs("--fs", args.fs)
+    check_snr_db("--snr-db", args.snr_db)
     scene = build_scene(args)
     fs = scene.fs
     if args.duration_s is not None and not args.duration_s > 0:
         raise ParameterError("--duration-s", args.duration_s, "a duration > 0 in seconds")
+    for option, path in (("--speech", args.speech), ("--noise", args.noise)):
+        if path is not None:
+            check_input_file(option, path)
+    out: Path = prepare_out_dir("--out", args.out)
     rng = np.random.default_rng([scene.seed, 1000])  # streams apart from the scene's own
     if args.speech is not None:
         x, _ = read_audio(args.speech, fs=fs)
@@ -286,8 +317,6 @@ def run(args) -> int:
         noise_source = f"generated:{args.noise_type}(seed={scene.seed})"
     rendered = render_images(scene, speech, [noise]).mix()
 
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
     files = {
         "mixture": rendered.mixture,
         "speech_image": rendered.speech_image,
@@ -298,7 +327,7 @@ def run(args) -> int:
         files["self_noise"] = rendered.self_noise_image
     for name, sig in files.items():
         write_audio(out / f"{name}.wav", sig, fs, subtype="FLOAT")
-    _write_json_atomic(
+    write_json_atomic(
         out / "scene.json",
         {
             "scene": scene.to_dict(),

@@ -28,37 +28,10 @@ TARGET_BATCH_OF = {"eb-subband": 0.01, "eb-robust": 0.01, "eb-robust-ss": 0.01}
 
 
 def _make(name: str):
-    """The registry's enhancer, or the local fallback when the registry/chain is not available."""
-    try:
-        import enhancers
+    """The registered enhancer ``name`` (default parameters)."""
+    import enhancers
 
-        return enhancers.make(name)
-    except Exception:  # registry not ready: build from the algorithm modules directly
-        from enhancers.eb import ElkoBeamformer
-        from enhancers.ss import SpectralSubtraction, SpectralSubtractionMS2001
-
-        if name == "eb-ss":
-            return _Cascade(ElkoBeamformer(), SpectralSubtraction())
-        return {"eb": ElkoBeamformer, "ss": SpectralSubtraction, "ss-ms2001": SpectralSubtractionMS2001}[name]()
-
-
-class _Cascade:
-    """Minimal EB -> SS cascade used only when ``enhancers.make("eb-ss")`` is unavailable."""
-
-    def __init__(self, first, second):
-        self.first, self.second = first, second
-        self.tags = first.tags
-
-    def process(self, x, fs):
-        return self.second.process(self.first.process(x, fs).output, fs)
-
-    def init_state(self, fs):
-        return (self.first.init_state(fs), self.second.init_state(fs))
-
-    def process_block(self, block, state):
-        a, sa = self.first.process_block(block, state[0])
-        b, sb = self.second.process_block(a, state[1])
-        return b, (sa, sb)
+    return enhancers.make(name)
 
 
 def _signal(seconds: float, n_channels: int, seed: int = 7) -> np.ndarray:
