@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from benchmarks import runner
+from benchmarks import worker
 from benchmarks.runner import run_sweep
 from benchmarks.store import ResultStore
 from benchmarks.sweep import parse_sweep
@@ -62,8 +62,8 @@ def test_resumed_rows_name_the_new_data(tmp_path, other_data):
 
 def test_render_cache_key_includes_the_data_directory(other_data):
     cond = parse_sweep(SWEEP).conditions()[0]
-    runner._IMAGES.clear()
-    _, builtin_speech, _ = runner.render_group(cond, None)
-    _, local_speech, local_noise = runner.render_group(cond, str(other_data.resolve()))
+    worker._IMAGES.clear()
+    _, builtin_speech, _ = worker.render_group(cond, None)
+    _, local_speech, local_noise = worker.render_group(cond, str(other_data.resolve()))
     assert builtin_speech != local_speech
     assert str(other_data.resolve()) in local_speech and str(other_data.resolve()) in local_noise
