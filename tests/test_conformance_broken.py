@@ -137,6 +137,32 @@ class SharedState(Gain):
         return ext[:, :n].copy(), state
 
 
+class SecondStreamReadsTheFirst(SharedState):
+    """The first stream is private; every later stream reads the first one's history.
+
+    Stream A is then exactly right and only stream B is wrong: the state-isolation check
+    must compare both streams (regression: a check of stream A alone passed this).
+    """
+
+    name = "broken-second-stream"
+
+    def _init_state(self, fs):
+        primary = getattr(self, "_primary", None)
+        if primary is None:
+            self._primary = primary = {"prev": np.zeros((1, 1))}
+            return primary
+        return {"alias": primary}
+
+    def _process_block(self, block, state):
+        own = "prev" in state
+        prev = state["prev"] if own else state["alias"]["prev"]
+        ext = np.concatenate([prev, block], axis=1)
+        n = block.shape[1]
+        if own:
+            state["prev"] = ext[:, n:]
+        return ext[:, :n].copy(), state
+
+
 class NotPicklable(Gain):
     """Holds a lambda (e.g. a callback) that pickle cannot serialise."""
 
@@ -169,6 +195,7 @@ BROKEN = {
     "silence": NanOnSilence,
     "bad_params": UnvalidatedParams,
     "state_isolation": SharedState,
+    "state_isolation (second stream)": SecondStreamReadsTheFirst,
     "pickle": NotPicklable,
     "output": WrongOutputShape,
 }
