@@ -206,7 +206,9 @@ def das_mix_step(Yd, D, p1, frozen, state: SubbandState, *, lam: float, eps: flo
       preset's wind, issue 12).
     * ``alpha0``: the prior, the weight before any noise-only frame (and where the averages
       stay tiny).  ``alpha0 = 1`` starts from the DAS, the path that never amplifies any
-      noise re the look direction; the differential path must then earn its weight.
+      noise re the look direction, 0 from the differential path, 0.5 halfway (the minimax
+      choice: the output-noise excess is ``(alpha - alpha*)^2 S_DD`` for the unknown optimum
+      ``alpha*`` in ``[0, 1]``).
     * ``smooth_bins`` (``h``): the per-frame products are first averaged over the ``2h + 1``
       neighbouring bins (edges repeated), a least-squares fit over ``2h + 1`` times more
       cells of the same time span.  In incoherent noise ``E[alpha] = 1`` exactly, and the
