@@ -39,7 +39,7 @@ one far-field source at 135 / 240 deg or diffuse, or Corcos wind, 5 dB SNR, 20 s
 8 s, mean of 3 seeds): SNR-I 27.8 / 26.6 / 3.4 / 8.6 dB with ideal mics and 27.5 / 26.2 /
 3.3 / 7.9 dB with the rear mic 1 dB / 5 deg off (plain ``eb``: 6.6 / 8.4 / 2.8 / -26.0 ->
 -0.7 / -0.5 / -0.8 / -26.8 dB; ``eb-gated``: 29.8 / 26.6 / 3.8 -> 1.5 / 1.5 / 0.6 dB).
-Broadband amplification of spatially white noise re the look direction WWW dB (fixed
+Broadband amplification of spatially white noise re the look direction -0.2 dB (fixed
 cardioid 10.3 dB).  Convergence: the calibration starts as a running mean and then has a
 1 s time constant of *active* (unfrozen) time; scored over the whole signal (the
 ``mismatch`` preset's 12 s) the loss from 1 dB / 5 deg stays within 1.1 dB.
