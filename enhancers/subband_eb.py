@@ -48,7 +48,9 @@ at 200 Hz.  A delay-and-sum towards the look direction,
 scaled to the same look response ``L = |G 2 sin(wT)|``, ``Yo = L (X1 e^{-jwT} + X2) / 2``,
 halves it instead.  Per bin the output is ``Y = Yd - alpha D`` with ``D = Yd - Yo`` (no
 look-direction component, for matched mics) and ``alpha = clip(<Re(Yd D*)> / <|D|^2>, 0, 1)``,
-the least-squares weight from one-pole averages (``mix_lam``) over earlier unfrozen frames:
+the least-squares weight from one-pole averages (``mix_lam``) over earlier unfrozen frames
+(products averaged over ``2 mix_smooth_bins + 1`` neighbouring bins, regularised towards the
+prior ``mix_alpha0`` relative to the noise-only front-mic power; see :func:`das_mix_step`):
 ``alpha -> 1`` in incoherent noise (closed form: ``<Yd Yo*> = <|Yo|^2>`` there), ``-> 0`` where
 the differential null wins (a rear plane wave).  ``trace["alpha"]``: ``(n_frames, n_bins)``.
 
@@ -75,6 +77,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import (
@@ -88,7 +91,7 @@ from enhancers.stft_stage import (
     smooth_frames,
 )
 from scenesim.errors import ParameterError
-from scenesim.validate import check_range
+from scenesim.validate import check_int, check_range
 
 __all__ = ["SubbandElkoBeamformer", "SubbandState", "closed_form_beta", "subband_beta_step"]
 
@@ -114,11 +117,13 @@ class SubbandState:
     gate: GateState
     alpha: np.ndarray | None = None  # (K,) das_mix: averages of Re(Yd conj(D)) and |D|^2
     p_d: np.ndarray | None = None
+    p_m: np.ndarray | None = None  # (K,) das_mix: average of P_1 over the same (unfrozen) frames
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
     z = np.zeros(n_bins)
-    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, gate=gate_init(n_bins), alpha=z, p_d=z)
+    return SubbandState(beta=np.full(n_bins, float(beta0)), p_b=z, p_1=z, gate=gate_init(n_bins), alpha=z, p_d=z,
+                        p_m=z)
 
 
 def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_window: int):
@@ -184,25 +189,51 @@ def _clipped_recursion(keep: np.ndarray, gain: np.ndarray, w0: np.ndarray):
     return out, w
 
 
-def das_mix_step(Yd, D, p1, frozen, state: SubbandState, *, lam: float, eps: float):
+def das_mix_step(Yd, D, p1, frozen, state: SubbandState, *, lam: float, eps: float, smooth_bins: int = 0,
+                 alpha0: float = 0.0):
     """Per-bin least-squares DAS mix weight: ``Y = Yd - alpha D``, ``alpha`` in ``[0, 1]``.
 
-    ``alpha[l] = clip(S_YD / (S_DD + eps P_1), 0, 1)`` from one-pole averages (``lam`` per frame)
-    of ``Re(Yd conj(D))`` and ``|D|^2`` over the frames *before* ``l`` that the beta gate did
-    not freeze (so neither the talker nor the frame itself steers its own weight).
-    ``state.alpha`` / ``state.p_d`` carry the two averages.  Returns ``(alphas (F, K), s_yd, s_dd)``.
+    ``alpha[l] = clip((S_YD + alpha0 r) / (S_DD + r), 0, 1)``, ``r = eps S_11``, from one-pole
+    averages (``lam`` per frame) of ``Re(Yd conj(D))``, ``|D|^2`` and ``P_1`` over the frames
+    *before* ``l`` that the beta gate (and the caller's ``frozen``) did not freeze, so neither
+    the talker nor the frame itself steers its own weight.
+
+    * The regulariser ``r`` is referenced to the *noise* (``S_11``: the front-mic power of the
+      same noise-only frames), not to the current frame: a regulariser ``eps P_1[l]`` grows by
+      the talker's level with every syllable and drags ``alpha`` to ``alpha0`` exactly while
+      the talker speaks -- noise that switches path with the speech, which a following
+      spectral subtraction (minimum statistics) cannot track (measured on the ``phone``
+      preset's wind, issue 12).
+    * ``alpha0``: the prior, the weight before any noise-only frame (and where the averages
+      stay tiny).  ``alpha0 = 1`` starts from the DAS, the path that never amplifies any
+      noise re the look direction, 0 from the differential path, 0.5 halfway (the minimax
+      choice: the output-noise excess is ``(alpha - alpha*)^2 S_DD`` for the unknown optimum
+      ``alpha*`` in ``[0, 1]``).
+    * ``smooth_bins`` (``h``): the per-frame products are first averaged over the ``2h + 1``
+      neighbouring bins (edges repeated), a least-squares fit over ``2h + 1`` times more
+      cells of the same time span.  In incoherent noise ``E[alpha] = 1`` exactly, and the
+      clip of a noisy ratio is biased below it; the lower-variance ratio removes most of
+      that bias without slowing the adaptation.
+
+    ``state.alpha`` / ``state.p_d`` / ``state.p_m`` carry ``S_YD``, ``S_DD``, ``S_11``.
+    Returns ``(alphas (F, K), S_YD, S_DD, S_11)`` (the last three ``(K,)``).
     """
     yd = Yd.real * D.real + Yd.imag * D.imag
     dd = D.real**2 + D.imag**2
+    if smooth_bins > 0:
+        yd = uniform_filter1d(yd, 2 * smooth_bins + 1, axis=1, mode="nearest")
+        dd = uniform_filter1d(dd, 2 * smooth_bins + 1, axis=1, mode="nearest")
     c = np.full(dd.shape, 1.0 - lam) if frozen is None else np.where(frozen, 0.0, 1.0 - lam)
     alphas = np.empty(dd.shape)
-    s_yd, s_dd = state.alpha.copy(), state.p_d.copy()
+    s_yd, s_dd, s_m = state.alpha.copy(), state.p_d.copy(), state.p_m.copy()
     for i in range(dd.shape[0]):  # time-varying one-pole per bin: loop over frames, vectorised over bins
-        alphas[i] = s_yd / (s_dd + eps * p1[i] + TINY)
+        reg = eps * s_m + TINY
+        alphas[i] = (s_yd + alpha0 * reg) / (s_dd + reg)
         s_yd += c[i] * (yd[i] - s_yd)
         s_dd += c[i] * (dd[i] - s_dd)
+        s_m += c[i] * (p1[i] - s_m)
     np.clip(alphas, 0.0, 1.0, out=alphas)
-    return alphas, s_yd, s_dd
+    return alphas, s_yd, s_dd, s_m
 
 
 @dataclass(frozen=True)
@@ -223,6 +254,8 @@ class SubbandEbParams(StftParams):
     eq_phase: bool = False
     das_mix: bool = False
     mix_lam: float = 0.95
+    mix_smooth_bins: int = 0
+    mix_alpha0: float = 0.0
 
     def _check_subband(self):
         self._check_stft()
@@ -242,6 +275,8 @@ class SubbandEbParams(StftParams):
             check_range("eq_noise_gain_db", self.eq_noise_gain_db, -20.0, 60.0)
         check_range("eq_highpass_hz", self.eq_highpass_hz, 0.0, 1000.0)
         check_range("mix_lam", self.mix_lam, 0.0, 1.0, hi_open=True)
+        check_int("mix_smooth_bins", self.mix_smooth_bins, minimum=0, maximum=64)
+        check_range("mix_alpha0", self.mix_alpha0, 0.0, 1.0)
         if not isinstance(self.eq_phase, bool):
             raise ParameterError("eq_phase", self.eq_phase, "True or False")
         if not isinstance(self.das_mix, bool):
@@ -304,9 +339,10 @@ class SubbandBase(StftEnhancer):
             frozen = extras["frozen"]
             if mix_frozen is not None:
                 frozen = mix_frozen if frozen is None else (frozen | mix_frozen)
-            alphas, a, pd = das_mix_step(Y, D, extras["p1"], frozen, sub, lam=float(p.mix_lam), eps=float(p.eps))
+            alphas, a, pd, pm = das_mix_step(Y, D, extras["p1"], frozen, sub, lam=float(p.mix_lam), eps=float(p.eps),
+                                          smooth_bins=int(p.mix_smooth_bins), alpha0=float(p.mix_alpha0))
             values = dict(vars(sub))
-            values.update(alpha=a, p_d=pd)
+            values.update(alpha=a, p_d=pd, p_m=pm)
             sub = SubbandState(**values)
             Y = Y - alphas * D
             record["alpha"] = alphas
@@ -337,6 +373,8 @@ class SubbandElkoBeamformer(SubbandBase):
     eq_phase : undo the look response's 90-degree shift (default off; see the module docstring).
     das_mix, mix_lam : the DAS fallback (off by default; needs ``eq_phase``) and its averages' factor
         per frame (0.95).
+    mix_smooth_bins, mix_alpha0 : the DAS mix weight's averaging half-width over bins (default 0) and
+        its prior (default 0: the differential path); see :func:`das_mix_step`.
 
     Examples
     --------
