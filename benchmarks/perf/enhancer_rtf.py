@@ -16,10 +16,10 @@ peer time too (timings on a shared 2-core machine are noisy).
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
+
+from benchmarks.perf.timing import median_time
 
 FS = 16000
 TARGET_BATCH, TARGET_STREAM = 0.005, 0.05
@@ -42,18 +42,6 @@ def _signal(seconds: float, n_channels: int, seed: int = 7) -> np.ndarray:
     return 0.1 * x
 
 
-def _median_time(fn, runs: int) -> tuple[float, float]:
-    """Median wall-clock and median CPU (process) time of ``fn`` over ``runs`` runs, seconds."""
-    fn()  # warm-up: imports, filter design, omin calibration
-    wall, cpu = [], []
-    for _ in range(runs):
-        t0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall.append(time.perf_counter() - t0)
-        cpu.append(time.process_time() - c0)
-    return statistics.median(wall), statistics.median(cpu)
-
-
 def measure(names, *, seconds: float = 10.0, runs: int = 5, block: int = 128) -> list[dict]:
     rows = []
     for name, kwargs in names:
@@ -69,11 +57,11 @@ def measure(names, *, seconds: float = 10.0, runs: int = 5, block: int = 128) ->
                 _, st = e.process_block(x[:, i:i + block], st)
 
         label = name + ("" if not kwargs else " " + ",".join(f"{k}={v}" for k, v in kwargs.items()))
-        (bw, bc), (sw, sc) = _median_time(batch, runs), _median_time(stream, runs)
+        (bw, bc), (sw, sc) = median_time(batch, runs), median_time(stream, runs)
         rows.append({"enhancer": label, "batch": bw / seconds, "batch_cpu": bc / seconds,
                      "stream": sw / seconds, "stream_cpu": sc / seconds})
     audio = _signal(seconds, 2)
-    peer = _median_time(lambda: np.fft.irfft(np.fft.rfft(audio, axis=-1), axis=-1), runs)[0]
+    peer = median_time(lambda: np.fft.irfft(np.fft.rfft(audio, axis=-1), axis=-1), runs)[0]
     for r in rows:
         r["peer_s"] = peer
     return rows

@@ -14,14 +14,13 @@ machine shows as a large peer time too (timings on a shared 2-core machine are n
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
 
 import enhancers
 from benchmarks import metrics as M
 from benchmarks.evaluate import evaluate_enhancer, input_metrics
+from benchmarks.perf.timing import median_time
 from scenesim.scene import Scene, render_scene
 
 FS = 16000
@@ -35,14 +34,8 @@ def _scene(seconds: float, rng: np.random.Generator):
     return render_scene(Scene(fs=FS, snr_db=5.0), s, [rng.standard_normal(t.size)])
 
 
-def _median_time(func, runs: int) -> float:
-    func()  # warm-up
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+def _wall(func, runs: int) -> float:
+    return median_time(func, runs)[0]
 
 
 def main(argv=None) -> int:
@@ -65,11 +58,11 @@ def main(argv=None) -> int:
             enhancers.make("eb-ss"), sc, input_metrics=inputs
         ),
     }
-    peer = _median_time(lambda: np.fft.irfft(np.fft.rfft(deg), deg.size), args.runs)
+    peer = _wall(lambda: np.fft.irfft(np.fft.rfft(deg), deg.size), args.runs)
     print(f"# metrics cost on {args.seconds:g} s at {FS} Hz, median of {args.runs} runs")
     print(f"{'what':32s} {'median s':>10s} {'x peer':>10s}")
     for name, func in cases.items():
-        t = _median_time(func, args.runs)
+        t = _wall(func, args.runs)
         print(f"{name:32s} {t:10.4f} {t / peer:10.1f}")
     print(f"{'peer: rfft+irfft':32s} {peer:10.5f} {1:10.1f}")
     return 0

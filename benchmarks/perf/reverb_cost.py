@@ -14,14 +14,13 @@ reverberation metrics, in the same process, so the ratio is what a sweep row pay
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import numpy as np
 
 import enhancers
 from benchmarks import metrics as M
 from benchmarks.evaluate import evaluate_enhancer, input_metrics
+from benchmarks.perf.timing import median_time
 from benchmarks.srmr import srmr
 from scenesim.geometry import MicPair
 from scenesim.reverb_parts import speech_parts
@@ -49,14 +48,8 @@ def _case(seconds: float):
     return images, s
 
 
-def _median_time(func, runs: int) -> float:
-    func()
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+def _wall(func, runs: int) -> float:
+    return median_time(func, runs)[0]
 
 
 def main(argv=None) -> int:
@@ -73,8 +66,8 @@ def main(argv=None) -> int:
     print(f"{'what':44s} {'median s':>9s} {'peer s':>9s} {'ratio':>7s}")
 
     def line(name, func, peer):
-        t = _median_time(func, args.runs)
-        p = _median_time(peer, args.runs) if peer is not None else None
+        t = _wall(func, args.runs)
+        p = _wall(peer, args.runs) if peer is not None else None
         print(f"{name:44s} {t:9.4f} {p if p is not None else float('nan'):9.4f} {t / p if p else float('nan'):7.2f}")
 
     mix0 = rendered.mixture[0]
