@@ -201,7 +201,7 @@ def _thesis_section(comparison: Sequence[dict]) -> list[str]:
         "reaches both mics bit-identically, and a differential pair with beta = 1 (a dipole) "
         "nulls it exactly at every frequency, so the EB numbers below are an **ideal-sensor "
         "upper bound** no phone attains: a 0.5 dB / 2° mismatch between the mics leaves that null "
-        "only ~23 dB below an omni, and self-noise bounds the output SNR (see the `phone` and "
+        "only ~23 dB below the look direction, and self-noise bounds the output SNR (see the `phone` and "
         "`mismatch` presets for real microphones). "
         "Ours: mean ± 95 % CI over seeds (n seeds). SNR-I = output SNR − input SNR at the "
         "reference mic (replay of the recorded operation on speech and noise). "
