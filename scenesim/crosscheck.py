@@ -89,20 +89,25 @@ class CrossCheck:
         return d
 
 
-def pyroomacoustics_rir(room: ShoeBox, source_m, mics_m, *, fs: int, max_order: int):
-    """pyroomacoustics' RIRs aligned to our convention: ``(n_mics, n)`` and its image count.
+def pyroomacoustics_rirs(room: ShoeBox, source_m, mics_m, *, fs: int, max_order: int, materials=None,
+                         directivity=None, air_absorption=None):
+    """pyroomacoustics' RIRs in our convention ``(n_mics, n)``, and its room (for image counts).
 
-    Removes the 40-sample global delay, divides by ``4 pi``, and runs with its high-pass
-    off (restoring the previous ``rir_hpf_enable`` afterwards, even on error).
+    Removes the 40-sample global delay, divides by ``4 pi``, and runs with its high-pass off
+    (restoring the previous ``rir_hpf_enable`` afterwards, even on error).  ``materials``
+    (default: the room's flat wall absorptions), ``directivity`` (a pyroomacoustics
+    directivity) and ``air_absorption`` (per-band energy coefficients) are passed through:
+    every cross-check (flat, octave bands, air, directivity) renders through here.
     """
     import pyroomacoustics as pra
 
     src = room.check_inside(source_m, name="source_m")
     mics = np.atleast_2d(np.asarray(mics_m, dtype=float))
-    materials = {
-        name: pra.Material(energy_absorption=float(a))
-        for name, a in zip(PRA_WALL_NAMES, room.wall_absorption)
-    }
+    if materials is None:
+        materials = {
+            name: pra.Material(energy_absorption=float(a))
+            for name, a in zip(PRA_WALL_NAMES, room.wall_absorption)
+        }
     previous = pra.constants.get("rir_hpf_enable")
     pra.constants.set("rir_hpf_enable", False)
     try:
@@ -111,14 +116,21 @@ def pyroomacoustics_rir(room: ShoeBox, source_m, mics_m, *, fs: int, max_order: 
             air_absorption=False, ray_tracing=False,
         )
         proom.set_sound_speed(room.c)
-        proom.add_source(list(src))
+        if air_absorption is not None:
+            proom.set_air_absorption([float(v) for v in air_absorption])
+        proom.add_source(list(src), directivity=directivity)
         proom.add_microphone_array(mics.T)
         proom.compute_rir()
     finally:
         pra.constants.set("rir_hpf_enable", previous)
     rirs = [np.asarray(proom.rir[m][0], dtype=float)[PRA_GLOBAL_DELAY:] for m in range(len(mics))]
     n = min(r.size for r in rirs)
-    out = np.stack([r[:n] for r in rirs]) / (4.0 * np.pi)
+    return np.stack([r[:n] for r in rirs]) / (4.0 * np.pi), proom
+
+
+def pyroomacoustics_rir(room: ShoeBox, source_m, mics_m, *, fs: int, max_order: int):
+    """pyroomacoustics' RIRs aligned to our convention: ``(n_mics, n)`` and its image count."""
+    out, proom = pyroomacoustics_rirs(room, source_m, mics_m, fs=fs, max_order=max_order)
     return out, int(proom.sources[0].images.shape[1])
 
 
@@ -242,4 +254,5 @@ __all__ = [
     "compare_with_pyroomacoustics",
     "plot_crosscheck",
     "pyroomacoustics_rir",
+    "pyroomacoustics_rirs",
 ]

@@ -22,7 +22,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from scenesim.bands import octave_filter, octave_rt60
-from scenesim.crosscheck import PRA_GLOBAL_DELAY, PRA_WALL_NAMES
+from scenesim.crosscheck import PRA_WALL_NAMES, pyroomacoustics_rirs
 from scenesim.errors import ParameterError, ScenesimError
 from scenesim.render import air_db_per_m, band_centers, room_rir
 from scenesim.room import ShoeBox
@@ -87,25 +87,12 @@ def pyroomacoustics_band_rir(room: ShoeBox, source_m, mics_m, *, fs: int, max_or
                                               "center_freqs": list(pra_centers)})
         for w, name in enumerate(PRA_WALL_NAMES)
     }
-    src = room.check_inside(source_m, name="source_m")
-    mics = np.atleast_2d(np.asarray(mics_m, dtype=float))
-    previous = pra.constants.get("rir_hpf_enable")
-    pra.constants.set("rir_hpf_enable", False)
-    try:
-        proom = pra.ShoeBox(list(room.dims_m), fs=fs, materials=materials, max_order=max_order,
-                            air_absorption=False, ray_tracing=False)
-        proom.set_sound_speed(room.c)
-        if room.air is not None:
-            m = air_db_per_m(room)[: len(pra_centers)] * NEPER_ENERGY_PER_DB
-            proom.set_air_absorption([float(v) for v in m])
-        proom.add_source(list(src))
-        proom.add_microphone_array(mics.T)
-        proom.compute_rir()
-    finally:
-        pra.constants.set("rir_hpf_enable", previous)
-    rirs = [np.asarray(proom.rir[k][0], dtype=float)[PRA_GLOBAL_DELAY:] for k in range(len(mics))]
-    n = min(r.size for r in rirs)
-    return np.stack([r[:n] for r in rirs]) / (4.0 * np.pi)
+    air = None
+    if room.air is not None:
+        air = air_db_per_m(room)[: len(pra_centers)] * NEPER_ENERGY_PER_DB
+    out, _ = pyroomacoustics_rirs(room, source_m, mics_m, fs=fs, max_order=max_order, materials=materials,
+                                  air_absorption=air)
+    return out
 
 
 def _t30(h, fs, fc) -> float:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenesim.crosscheck import PRA_GLOBAL_DELAY, PRA_WALL_NAMES
+from scenesim.crosscheck import pyroomacoustics_rirs
 from scenesim.directivity import Directivity
 from scenesim.ism import image_source_rir
 from scenesim.room import ShoeBox
@@ -42,31 +42,12 @@ class DirectivityCheck:
 def pyroomacoustics_cardioid_rir(room: ShoeBox, source_m, mics_m, *, fs, max_order, p, azimuth_deg,
                                  elevation_deg):
     """pyroomacoustics' RIRs ``(n_mics, n)`` for a ``CardioidFamily(p)`` source, our convention."""
-    import pyroomacoustics as pra
     from pyroomacoustics.directivities import CardioidFamily, DirectionVector
 
-    mics = np.atleast_2d(np.asarray(mics_m, dtype=float))
-    materials = {
-        name: pra.Material(energy_absorption=float(a))
-        for name, a in zip(PRA_WALL_NAMES, room.wall_absorption)
-    }
     orientation = DirectionVector(azimuth=azimuth_deg, colatitude=90.0 - elevation_deg, degrees=True)
-    previous = pra.constants.get("rir_hpf_enable")
-    pra.constants.set("rir_hpf_enable", False)
-    try:
-        proom = pra.ShoeBox(
-            list(room.dims_m), fs=fs, materials=materials, max_order=max_order,
-            air_absorption=False, ray_tracing=False,
-        )
-        proom.set_sound_speed(room.c)
-        proom.add_source(list(np.asarray(source_m, float)), directivity=CardioidFamily(orientation, p))
-        proom.add_microphone_array(mics.T)
-        proom.compute_rir()
-    finally:
-        pra.constants.set("rir_hpf_enable", previous)
-    rirs = [np.asarray(proom.rir[m][0], dtype=float)[PRA_GLOBAL_DELAY:] for m in range(len(mics))]
-    n = min(r.size for r in rirs)
-    return np.stack([r[:n] for r in rirs]) / (4.0 * np.pi)
+    out, _ = pyroomacoustics_rirs(room, source_m, mics_m, fs=fs, max_order=max_order,
+                                  directivity=CardioidFamily(orientation, p))
+    return out
 
 
 def compare_directivity_with_pyroomacoustics(
