@@ -61,7 +61,8 @@ def _swept_noises(sel: Sequence[dict], vary: str) -> list:
     ]
 
 
-def _save(fig, path: Path) -> Path:
+def save_figure(fig, path: Path) -> Path:
+    """Save ``fig`` as PNG at ``path`` (folder created) and close it: every report figure goes through here."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -168,7 +169,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         where = "thesis geometry" if at_thesis else _geo_text(geo)
         fig.suptitle(f"{noise}: ours solid, thesis dashed ({where})", fontsize=10)
         fig.tight_layout()
-        paths.append(_save(fig, out_dir / f"snr_pesq_vs_input_snr_{noise}.png"))
+        paths.append(save_figure(fig, out_dir / f"snr_pesq_vs_input_snr_{noise}.png"))
     return paths
 
 
@@ -225,7 +226,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         fontsize=10,
     )
     fig.tight_layout()
-    return [_save(fig, out_dir / "snr_i_vs_rt60.png")]
+    return [save_figure(fig, out_dir / "snr_i_vs_rt60.png")]
 
 
 def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
@@ -288,7 +289,7 @@ def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     fig.legend(handles, labels, loc="lower center", ncol=max(1, len(labels)), fontsize=8)
     fig.suptitle("SNR-I (dB) vs noise azimuth (mean over seeds)", fontsize=10)
     fig.tight_layout(rect=(0, 0.5 / (4.6 * n_rows + 0.6), 1, 0.95))
-    return [_save(fig, out_dir / "snr_i_vs_noise_azimuth.png")]
+    return [save_figure(fig, out_dir / "snr_i_vs_noise_azimuth.png")]
 
 
 def _pick_trace_row(rows: Sequence[dict]) -> dict | None:
@@ -346,7 +347,7 @@ def beta_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         fontsize=9,
     )
     fig.tight_layout()
-    return [_save(fig, out_dir / "beta_trajectory.png")]
+    return [save_figure(fig, out_dir / "beta_trajectory.png")]
 
 
 def all_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:

@@ -30,6 +30,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from benchmarks import thesis_reference as T  # noqa: E402
+from benchmarks.figures import save_figure  # noqa: E402
 from benchmarks.report_tables import (  # noqa: E402
     aggregate_over_seeds,
     distinct,
@@ -176,9 +177,7 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
     axes[-1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
@@ -194,9 +193,7 @@ def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     ax.legend(fontsize=7)
     ax.set_title("RT60: target vs achieved (mean, 95 % CI over seeds)", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def _acoustics_table(acoustics: Sequence[dict], keys: Sequence[tuple[str, str]]) -> str:

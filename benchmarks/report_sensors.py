@@ -26,6 +26,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from benchmarks import thesis_reference as T  # noqa: E402
+from benchmarks.figures import save_figure  # noqa: E402
 from benchmarks.report_tables import (  # noqa: E402
     aggregate,
     aggregate_over_seeds,
@@ -122,10 +123,7 @@ def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
     fig.suptitle(f"Realistic phones (sensors drawn per seed): mean over input SNRs, 95 % CI over {n} seeds; "
                  "black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
     fig.tight_layout()
-    path = report_dir / "phone_vs_thesis.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, report_dir / "phone_vs_thesis.png")
 
 
 def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list[Path]]:
@@ -273,9 +271,7 @@ def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -
     axes[0, -1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.suptitle(f"{ylabel} vs mic mismatch (solid: noiseless mics; dashed: with self-noise)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def mismatch_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list[Path]]:

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -46,9 +45,15 @@ from scipy.special import exp1
 
 from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from enhancers.filterbank import FilterBank, FilterBankState
-from enhancers.noise_tracking import MS2001Config, MS2001State, ms2001_init, ms2001_step
+from enhancers.noise_tracking import (
+    MS2001Config,
+    MS2001State,
+    check_ms2001_fields,
+    ms2001_init,
+    ms2001_step,
+)
 from scenesim.errors import ParameterError
-from scenesim.validate import check_finite_number, check_int, check_positive, check_range
+from scenesim.validate import check_finite_number, check_int, check_range
 
 __all__ = ["MmseLsa", "dd_prior_snr", "lsa_gain"]
 
@@ -150,11 +155,7 @@ class MmseLsa(Enhancer):
             check_finite_number("xi_min_db", self.xi_min_db)
             check_range("xi_min_db", self.xi_min_db, -100.0, 20.0)
             check_range("gain_max", self.gain_max, 1.0, 1e3)
-            for name in ("taca", "tamax", "taminh", "tpfall", "tbmax", "av", "td"):
-                check_positive(name, getattr(self, name))
-            check_range("qeqmin", self.qeqmin, 1.0, math.inf, lo_open=True)
-            check_range("qeqmax", self.qeqmax, self.qeqmin, math.inf)
-            check_int("nu", self.nu, minimum=1)
+            check_ms2001_fields(self)
 
         @property
         def xi_min(self) -> float:

@@ -29,6 +29,7 @@ from scipy.signal import lfilter
 
 from enhancers.filterbank import FilterBank
 from scenesim.memo import array_key, cached_array
+from scenesim.validate import check_int, check_positive, check_range
 
 __all__ = [
     "MS1994State",
@@ -230,6 +231,19 @@ def _mh_values(d: int) -> tuple[float, float]:
     h = tab[i, 2] + (q - qi) * (tab[j, 2] - tab[i, 2]) / (qj - qi)
     m = tab[i, 1] + (qi * qj / q - qj) * (tab[j, 1] - tab[i, 1]) / (qi - qj)
     return float(m), float(h)
+
+
+def check_ms2001_fields(params) -> None:
+    """Validate the Martin 2001 tracker constants an enhancer's ``Params`` carries.
+
+    Time constants (``taca``, ``tamax``, ``taminh``, ``tpfall``, ``tbmax``, ``av``, ``td``)
+    > 0, ``1 < qeqmin <= qeqmax``, integer ``nu >= 1``; raises ParameterError naming the field.
+    """
+    for name in ("taca", "tamax", "taminh", "tpfall", "tbmax", "av", "td"):
+        check_positive(name, getattr(params, name))
+    check_range("qeqmin", params.qeqmin, 1.0, math.inf, lo_open=True)
+    check_range("qeqmax", params.qeqmax, params.qeqmin, math.inf)
+    check_int("nu", params.nu, minimum=1)
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -39,6 +38,7 @@ from enhancers.noise_tracking import (
     MS2001Config,
     MS2001State,
     calibrate_omin,
+    check_ms2001_fields,
     ms1994_init,
     ms1994_step,
     ms2001_init,
@@ -276,11 +276,7 @@ class SpectralSubtractionMS2001(_SubtractionBase):
 
         def __post_init__(self):
             self._check_common()
-            for name in ("taca", "tamax", "taminh", "tpfall", "tbmax", "av", "td"):
-                check_positive(name, getattr(self, name))
-            check_range("qeqmin", self.qeqmin, 1.0, math.inf, lo_open=True)
-            check_range("qeqmax", self.qeqmax, self.qeqmin, math.inf)
-            check_int("nu", self.nu, minimum=1)
+            check_ms2001_fields(self)
 
     def config(self, fs: int) -> MS2001Config:
         """Tracker constants at ``fs`` (hop in seconds = ``hop / fs``)."""
