@@ -201,7 +201,7 @@ def plane_wave_response(
     any mismatch leaves ``|1 - r|`` -- a 0.5 dB / 2 deg mismatch is ``|1 - r| = 0.066``,
     a null only ~24 dB below an omni, whatever the frequency.
 
-    >>> abs(plane_wave_response([1000.0], 180.0, beta=0.0)[0]) < 1e-12
+    >>> bool(abs(plane_wave_response([1000.0], 180.0, beta=0.0)[0]) < 1e-12)
     True
     """
     w = 2.0 * np.pi * np.asarray(freqs_hz, dtype=float)

@@ -103,9 +103,15 @@ def superdirective_weights(freqs_hz, *, spacing_m: float, c_mps: float, look_az_
 
     Example
     -------
-    >>> w, mu = superdirective_weights([1000.0], spacing_m=0.0214, c_mps=343.0)
-    >>> float(np.round(wng_db(w, steering_vector([1000.0], spacing_m=0.0214, c_mps=343.0))[0], 3))
-    -10.0
+    At 300 Hz the unloaded array has a WNG of -19.1 dB, so the loading lifts it to the floor;
+    at 1 kHz it is -8.8 dB unloaded and the floor leaves it alone:
+
+    >>> f = [300.0, 1000.0]
+    >>> w, mu = superdirective_weights(f, spacing_m=0.0214, c_mps=343.0)
+    >>> [round(float(v), 2) for v in wng_db(w, steering_vector(f, spacing_m=0.0214, c_mps=343.0))]
+    [-10.0, -8.76]
+    >>> bool(mu[1] == 1e-12)
+    True
     """
     f = np.atleast_1d(np.asarray(freqs_hz, dtype=float))
     d = steering_vector(f, spacing_m=spacing_m, c_mps=c_mps, look_az_deg=look_az_deg)

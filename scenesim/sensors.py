@@ -99,7 +99,7 @@ def self_noise_variance(self_noise_dba: float, *, speech_spl_db: float, speech_p
     ``speech_spl_db + 10 log10(v * a_weighted_white_fraction(fs) / speech_power)``.
 
     >>> v = self_noise_variance(30.0, speech_spl_db=65.0, speech_power=1.0, fs=16000)
-    >>> round(10 * np.log10(v * a_weighted_white_fraction(16000)), 6)
+    >>> round(float(10 * np.log10(v * a_weighted_white_fraction(16000))), 6)
     -35.0
     """
     level = check_finite_number("self_noise_dba", self_noise_dba)
