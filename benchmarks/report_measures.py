@@ -208,7 +208,7 @@ def octave_figures(summary: Sequence[dict], report_dir: Path) -> list[Path]:
             ax.set(title=f"{rec['noise']} ({rec['noise_field']}), n={rec['n']}", xlabel="octave centre (Hz)")
             ax.axhline(0.0, color="grey", lw=0.8)
             ax.grid(True, axis="y", alpha=0.3)
-            ax.legend(fontsize=6, loc="lower left")
+            ax.legend(fontsize=6, loc="upper right")
         axes[0][0].set_ylabel("SNR-I (dB)")
         fig.suptitle(f"{name}: per-octave SNR-I beside the bounds of a linear 2-mic system", fontsize=9)
         fig.tight_layout()
