@@ -245,7 +245,7 @@ def null_by_band(gain_db: float = 0.5, phase_deg: float = 2.0) -> dict[str, floa
 def null_phrase(gain_db: float = 0.5, phase_deg: float = 2.0) -> str:
     """The mismatched null as the report states it: per band after the look EQ, and broadband."""
     d = null_by_band(gain_db, phase_deg)
-    return (f"a {gain_db:g} dB / {phase_deg:g}° mismatch between the mics leaves that null {d['white']:.0f} dB "
+    return (f"a {gain_db:g} dB / {phase_deg:g}° mismatch between the mics leaves that null {-d['white']:.0f} dB "
             f"below the look direction only for the unequalised output and white noise; after the look EQ "
             f"every EB applies it is {d['125']:+.0f} dB at 125 Hz, {d['250']:+.0f} dB at 250 Hz, "
             f"{d['1000']:+.0f} dB at 1 kHz and {d['eq_speech']:+.1f} dB broadband for speech-shaped noise")  # fmt: skip
