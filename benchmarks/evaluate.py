@@ -450,7 +450,7 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         p_y = float(np.mean((s_al + n_al) ** 2))
         cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
         row["snr_cross_ratio"] = cross
-        _new_measures(row, errors, rendered, (result, result2), (s, n, n_out), (s_al, n_al, y_al), fs, latency)
+        _new_measures(row, errors, rendered, result2, (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
         if abs(cross) > CROSS_WARN_RATIO:
             warnings.warn(
                 f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
@@ -494,19 +494,20 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
     row["trace_json"] = _try(errors, "trace_json", _trace_json, result.trace, x.shape[1], fs)
 
 
-def _new_measures(row, errors, rendered, results, inputs, aligned, fs, latency) -> None:
+def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -> None:
     """Distortion, G.160 and attribution columns (:mod:`benchmarks.row_measures`), each on its own.
 
-    ``results = (W1, W2)`` (W2 None for black boxes), ``inputs = (s, n, n_out)`` as the
-    enhancer took them and the full replayed noise, ``aligned = (s_al, n_al, y_al)``.
+    ``result2``: the Hagerman run's Result (W2; None for black boxes); ``parts = (s, n, s_out,
+    n_out)``: speech and noise as the enhancer took them and the output's full speech and
+    noise parts; ``aligned = (s_al, n_al, y_al)``.
     """
-    s, n, n_out = inputs
+    s, n, s_out, n_out = parts
     s_al, n_al, y_al = aligned
     m = s_al.size
     s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0][:m]
     n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0][:m]
-    if results[1] is not None and row["snr_method"] == "replay":
-        row.update(_try(errors, "distortion", distortion_columns, *results, s, n, n_out, latency=latency, n_ref=_ref_row(rendered).size) or {})
+    if result2 is not None and row["snr_method"] == "replay":
+        row.update(_try(errors, "distortion", distortion_columns, result2, s, n, s_out, n_out, latency=latency, n_ref=_ref_row(rendered).size) or {})
     if row["snr_method"] == "replay":
         row.update(_try(errors, "g160", g160_columns, s0, fs, parts=(s0, n0, s_al, n_al)) or {})
     else:

@@ -4,8 +4,9 @@ Three groups, each computed by one function so a failure in one leaves the other
 
 * :func:`distortion_columns` -- ``speech_jitter_db`` and ``hagerman_leak_db``
   (:mod:`benchmarks.distortion`) from the two Hagerman runs' replayed operations: ``W1`` is
-  the Result of ``s + n`` (the row's own run), ``W2`` that of ``s - n`` (the Hagerman run);
-  each is replayed on the speech and on the noise (``+n``).  Replayable systems only.
+  the Result of ``s + n`` (the row's own run, whose replays the row already has), ``W2`` that
+  of ``s - n`` (the Hagerman run); each is replayed on the speech and on the noise (``+n``).
+  Replayable systems only; no extra enhancer run.
 * :func:`g160_columns` -- ``g160_snri_db``, ``g160_tnlr_db``, ``g160_dsn_db``
   (:mod:`benchmarks.g160`): from the replayed parts for white boxes, from mixture and output
   for black boxes.
@@ -42,17 +43,18 @@ MEASURE_COLUMNS: dict[str, str] = {
 }
 
 
-def distortion_columns(result1, result2, s, n, n_out1, *, latency: int, n_ref: int) -> dict[str, Any]:
+def distortion_columns(result2, s, n, s_out1, n_out1, *, latency: int, n_ref: int) -> dict[str, Any]:
     """``speech_jitter_db`` and ``hagerman_leak_db`` of the first output channel.
 
-    ``result1`` / ``result2``: the Results of ``s + n`` and ``s - n``; ``s, n`` the enhancer's
-    input speech and noise ``(channels, samples)``; ``n_out1 = result1.replay(n)`` (already
-    computed by the caller); ``n_ref`` the reference length the output is aligned to.
+    ``result2``: the Result of ``s - n`` (W2); ``s, n`` the enhancer's input speech and noise
+    ``(channels, samples)``; ``s_out1, n_out1``: W1 (the Result of ``s + n``) replayed on them,
+    ``(n_out, samples)``, already computed by the caller; ``n_ref`` the reference length the
+    output is aligned to.
     """
     def aligned(v):
         return M.align(np.asarray(v, dtype=np.float64)[0], np.empty(n_ref), latency_samples=latency)[0]
 
-    w1s, w2s = aligned(result1.replay(s)), aligned(result2.replay(s))
+    w1s, w2s = aligned(s_out1), aligned(result2.replay(s))
     w1n, w2n = aligned(n_out1), aligned(result2.replay(n))
     return {"speech_jitter_db": speech_jitter_db(w1s, w2s), "hagerman_leak_db": hagerman_leak_db(w1s, w2s, w1n, w2n)}
 

@@ -133,9 +133,8 @@ def test_leak_of_a_hand_built_pair():
     # W1 = 1.2, W2 = 0.8 on tones of power A^2/2 (whole cycles): leak = (0.4 A)^2 / (2.0 B)^2.
     n = 8000
     s, v = _tone(500, 1.0, n)[None], _tone(1000, 0.25, n)[None]
-    w1 = Result(output=np.zeros((1, n)), _replay=lambda c: 1.2 * c)
     w2 = Result(output=np.zeros((1, n)), _replay=lambda c: 0.8 * c)
-    cols = distortion_columns(w1, w2, s, v, 1.2 * v, latency=0, n_ref=n)
+    cols = distortion_columns(w2, s, v, 1.2 * s, 1.2 * v, latency=0, n_ref=n)
     assert cols["hagerman_leak_db"] == pytest.approx(20 * np.log10(0.4 * 1.0 / (2.0 * 0.25)), abs=1e-9)
     assert cols["speech_jitter_db"] == pytest.approx(20 * np.log10(0.4 / 1.2), abs=1e-9)
 
