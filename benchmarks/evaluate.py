@@ -36,6 +36,12 @@ from benchmarks.reverb_metrics import (
     input_columns,
     output_columns,
 )
+from benchmarks.row_measures import (
+    MEASURE_COLUMNS,
+    attribution_columns,
+    distortion_columns,
+    g160_columns,
+)
 from scenesim.errors import ParameterError
 
 #: Columns produced by :func:`input_metrics` (SQL types for the results store).
@@ -94,6 +100,7 @@ ROW_COLUMNS: dict[str, str] = {
     "metrics_s": "REAL",
     "trace_json": "TEXT",
     **REVERB_OUTPUT_COLUMNS,
+    **MEASURE_COLUMNS,  # distortion, G.160, attribution (benchmarks.row_measures)
 }
 
 #: At most this many points of each beta trajectory go into ``trace_json``.
@@ -259,14 +266,16 @@ def _components(enhancer, result, x, s, n, fs, notes: list[str]):
 
 
 def _hagerman_snr_out_db(enhancer, result, signals, fs, latency, ref, method, snr_out_db):
-    """Output SNR by phase inversion: ``y1 = f(s + n)`` (the output), ``y2 = f(s - n)``."""
+    """``(snr_out_db, result2)``: output SNR by phase inversion, ``y1 = f(s + n)`` (the output),
+    ``y2 = f(s - n)``, and the Result of ``s - n`` (None when ``method`` already did this)."""
     if method == "phase-inversion":
-        return snr_out_db  # already measured this way
+        return snr_out_db, None  # already measured this way
     x, s, n, y = signals
-    y2 = _check_output(enhancer.process(s - n, fs).output, x.shape[1], "output(s - n)")
+    result2 = enhancer.process(s - n, fs)
+    y2 = _check_output(result2.output, x.shape[1], "output(s - n)")
     s_al, _ = M.align(0.5 * (y[0] + y2[0]), ref, latency_samples=latency)
     n_al, _ = M.align(0.5 * (y[0] - y2[0]), ref, latency_samples=latency)
-    return M.snr_db(s_al, n_al)
+    return M.snr_db(s_al, n_al), result2
 
 
 def _trace_json(trace: Mapping[str, Any], n_samples: int, fs: int) -> str | None:
@@ -427,7 +436,7 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row["snr_out_band_db"] = _try(errors, "snr_out_band", _band_snr_db, s_al, n_al, fs, band)
         band_in = _try(errors, "snr_in_band", _band_snr_db, s0[:m], n0[:m], fs, band)
         row["snr_i_band_db"] = _delta(row["snr_out_band_db"], band_in)
-        hag = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"])
+        hag, result2 = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"]) or (None, None)
         row["snr_out_hagerman_db"] = hag
         row["snr_i_hagerman_db"] = _delta(hag, snr_in)
         self_noise = getattr(rendered, "self_noise_image", None)
@@ -441,6 +450,7 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         p_y = float(np.mean((s_al + n_al) ** 2))
         cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
         row["snr_cross_ratio"] = cross
+        _new_measures(row, errors, rendered, result2, (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
         if abs(cross) > CROSS_WARN_RATIO:
             warnings.warn(
                 f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
@@ -482,3 +492,27 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
     row["segsnr_i_db"] = _delta(row["segsnr_out_db"], row["segsnr_in_db"])
     row["si_sdr_i_db"] = _delta(row["si_sdr_out_db"], row["si_sdr_in_db"])
     row["trace_json"] = _try(errors, "trace_json", _trace_json, result.trace, x.shape[1], fs)
+
+
+def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -> None:
+    """Distortion, G.160 and attribution columns (:mod:`benchmarks.row_measures`), each on its own.
+
+    ``result2``: the Hagerman run's Result (W2; None for black boxes); ``parts = (s, n, s_out,
+    n_out)``: speech and noise as the enhancer took them and the output's full speech and
+    noise parts; ``aligned = (s_al, n_al, y_al)``.
+    """
+    s, n, s_out, n_out = parts
+    s_al, n_al, y_al = aligned
+    m = s_al.size
+    s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0][:m]
+    n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0][:m]
+    if result2 is not None and row["snr_method"] == "replay":
+        row.update(_try(errors, "distortion", distortion_columns, result2, s, n, s_out, n_out, latency=latency, n_ref=_ref_row(rendered).size) or {})
+    if row["snr_method"] == "replay":
+        row.update(_try(errors, "g160", g160_columns, s0, fs, parts=(s0, n0, s_al, n_al)) or {})
+    else:
+        mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0][:m]
+        row.update(_try(errors, "g160", g160_columns, s0, fs, mixture=mix0, output=y_al) or {})
+    self_noise = getattr(rendered, "self_noise_image", None)
+    self0 = None if self_noise is None else np.asarray(self_noise, dtype=np.float64)[0][:m]
+    row.update(_try(errors, "attribution", attribution_columns, s0, n0, s_al, n_al, fs, snr_i_db=row["snr_i_db"], self_noise=self0) or {})

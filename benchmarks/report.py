@@ -28,7 +28,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures, report_reverb, report_sensors
+from benchmarks import figures, report_measures, report_reverb, report_sensors
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.html_report import write_index
@@ -200,8 +200,7 @@ def _thesis_section(comparison: Sequence[dict]) -> list[str]:
         "**ideal sensors** -- two identical, noiseless microphones. A broadside plane wave then "
         "reaches both mics bit-identically, and a differential pair with beta = 1 (a dipole) "
         "nulls it exactly at every frequency, so the EB numbers below are an **ideal-sensor "
-        "upper bound** no phone attains: a 0.5 dB / 2° mismatch between the mics leaves that null "
-        "only ~23 dB below the look direction, and self-noise bounds the output SNR (see the `phone` and "
+        f"upper bound** no phone attains: {report_measures.null_phrase()}, and self-noise bounds the output SNR (see the `phone` and "
         "`mismatch` presets for real microphones). "
         "Ours: mean ± 95 % CI over seeds (n seeds). SNR-I = output SNR − input SNR at the "
         "reference mic (replay of the recorded operation on speech and noise). "
@@ -475,7 +474,7 @@ def write_report(
     report_dir = Path(out_dir) / REPORT_DIRNAME
     report_dir.mkdir(parents=True, exist_ok=True)
     all_rows = normalise_rows(rows)
-    ok = [r for r in all_rows if r["status"] == "ok"]
+    ok = report_measures.drop_leaky_hagerman([r for r in all_rows if r["status"] == "ok"])
     fields = [f for f in METRIC_FIELDS if any(f in r for r in all_rows)]
     generic = _generic_rows(ok)
 
@@ -487,15 +486,16 @@ def write_report(
     mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
     flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
     reverb_lines, reverb_paths = report_reverb.reverb_sections(ok, report_dir)
+    measure_lines, measure_paths = report_measures.measures_section(ok, report_dir)
     written = [*cond_paths, *thesis_paths, *sweep_paths, *fail_paths, *phone_paths, *mismatch_paths,
-               *flag_paths, *reverb_paths]  # fmt: skip
+               *flag_paths, *reverb_paths, *measure_paths]  # fmt: skip
     fig_paths = figures.all_figures(generic, report_dir) if generic else []
     fig_paths += [p for p in written if p.suffix == ".png"]
     paths = [p for p in written if p.suffix != ".png"]
 
     lines = [
         *_meta_lines(meta, all_rows), *phone_lines, *mismatch_lines, *reverb_lines, *thesis_lines,
-        *sweep_lines, *cond_lines, *flag_lines, *fail_lines, *_sources_section(all_rows),
+        *sweep_lines, *cond_lines, *measure_lines, *flag_lines, *fail_lines, *_sources_section(all_rows),
         *_files_lines(paths, fig_paths),
     ]  # fmt: skip
     summary = report_dir / "summary.md"
