@@ -144,12 +144,12 @@ class CalibrationParams(StftParams):
     gate_lam_cal: float = 0.7
     floor_lam_cal: float | None = None
     floor_s: float = 1.0
-    freeze_level_db: float | None = 3.0
+    freeze_level_db: float | None = None
     level_band_hz: tuple[float, float] = (200.0, 7000.0)
     level_floor_s: float = 3.0
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
-    ramp_frames: float = 40.0
+    ramp_frames: float = 0.0
 
     def _check_calibration(self):
         self._check_stft()
@@ -422,8 +422,7 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     # shrunk towards the nominal 1 while a bin has few active frames n: r^min(1, n / ramp_frames)
     # (a few frames' estimate is noisy, and whatever of the talker leaks into them weighs 1/n)
     n_upd = counts[is_update]
-    ramp = np.minimum(1.0, n_upd / float(p.ramp_frames)) if p.ramp_frames > 0 else np.ones_like(n_upd)
-    r_upd = np.exp(ramp * np.log(r_raw))
+    r_upd = np.exp(np.minimum(1.0, n_upd / float(p.ramp_frames)) * np.log(r_raw)) if p.ramp_frames > 0 else r_raw
     raw_last = r_raw[-1].copy() if r_raw.shape[0] else state.raw_last
     # every frame uses the estimate of the last update frame (the previous block's when none yet)
     held = np.concatenate([state.r_last[None], r_upd], axis=0)

@@ -323,10 +323,11 @@ class SubbandBase(StftEnhancer):
         look = np.abs(G) * np.abs(2.0 * np.sin(wt))
         return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
 
-    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None):
+    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None):
         """``(Y (F, K), record, new state)`` for the frames of one block.
 
-        ``mix_frozen`` (F, K): bins where neither beta nor the DAS mix weight may learn (OR-ed with the gate).
+        ``mix_frozen`` (F, K): bins where the DAS mix weight must not learn either (OR-ed with the gate);
+        ``beta_frozen`` (F, K): the same for beta.
         """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
@@ -335,13 +336,15 @@ class SubbandBase(StftEnhancer):
             cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
             gate_db=None if p.adapt_gate_db is None else float(p.adapt_gate_db),
             gate_lam=None if p.gate_lam is None else float(p.gate_lam), gate_window=self._gate_window(fs),
-            extras=extras, also_frozen=mix_frozen)
+            extras=extras, also_frozen=beta_frozen)
         G = self._eq(betas, fs)
         Y = G * (cF - betas * cB)
         record = {"beta": betas, "eq": G}
         if p.das_mix and Y.shape[0]:
             D = Y - self._das(X1, X2, G, fs)
             frozen = extras["frozen"]
+            if mix_frozen is not None:
+                frozen = mix_frozen if frozen is None else (frozen | mix_frozen)
             alphas, a, pd, pm = das_mix_step(Y, D, extras["p1"], frozen, sub, lam=float(p.mix_lam), eps=float(p.eps),
                                           smooth_bins=int(p.mix_smooth_bins), alpha0=float(p.mix_alpha0))
             values = dict(vars(sub))

@@ -85,18 +85,15 @@ def _noise_then_talker():
 def test_estimate_stays_put_while_near_field_talker_speaks(freeze):
     """Converged on noise, the estimate moves by <= 0.15 dB / 1 deg (300 Hz-4 kHz, mean over the band of the
     absolute change; measured 0.06 dB / 0.46 deg) during 4 s of a near-field talker 5 cm away at +10 dB
-    (whose level differs by ~3 dB between the mics).  The averages run ``level_ahead_s`` behind the input,
-    so the estimate before the talker is the one ``level_ahead_s`` after the onset.  Control: with the
-    three freeze rules disabled it moves by more than 0.5 dB (measured 1.6 dB)."""
+    (whose level differs by ~3 dB between the mics).  Control: with both freeze rules disabled it moves by
+    more than 0.5 dB (measured 1.6 dB)."""
     x, onset = _noise_then_talker()
-    kw = {} if freeze else {"freeze_db": 60.0, "freeze_band_db": 60.0, "freeze_level_db": None}
-    e = make("mic-calibration", **kw)
-    tr = e.process(x, FS).trace
+    kw = {} if freeze else {"freeze_db": 60.0, "freeze_band_db": 60.0}
+    tr = make("mic-calibration", **kw).process(x, FS).trace
     band = (F_HZ >= 300) & (F_HZ <= 4000)
     g, p = tr["rear_gain_db"][:, band], tr["rear_phase_deg"][:, band]
-    before = onset - 1 + (round(e.params.level_ahead_s * FS / 128) if freeze else 0)
-    dg = np.mean(np.abs(g[-1] - g[before]))
-    dp = np.mean(np.abs(p[-1] - p[before]))
+    dg = np.mean(np.abs(g[-1] - g[onset - 1]))
+    dp = np.mean(np.abs(p[-1] - p[onset - 1]))
     if freeze:
         assert dg <= 0.15 and dp <= 1.0
     else:
@@ -107,14 +104,13 @@ def test_vectorised_step_matches_slow_reference():
     """calibration_step (vectorised, fed in three blocks) == the loop reference of tests/subband_reference.py
     (freeze rules, per-bin averages, slope fit, band smoothing) to 1e-9 in r_hat, identical freeze masks.
     Small config (64-point frames, 40 frames, 0.1 s floor) on a diffuse field plus a frontal burst; the
-    reference has the two cardioid rules, so the level rule and the start-up ramp are off here."""
+    reference has the two cardioid rules (the default: the talker-blind level rule and ramp off)."""
     from subband_reference import calibration_reference
 
     from enhancers.mic_calibration import MicCalibration, _band, calibration_init, calibration_step
 
     rng = np.random.default_rng(24)
-    e = MicCalibration(frame_len=64, hop=32, tau_s=0.05, floor_s=0.1, estimate_every=3, fit_band_hz=(700.0, 5000.0),
-                       freeze_level_db=None, ramp_frames=0.0)
+    e = MicCalibration(frame_len=64, hop=32, tau_s=0.05, floor_s=0.1, estimate_every=3, fit_band_hz=(700.0, 5000.0))
     p = e.params
     x = apply_mismatch(diffuse_noise(40 * 32, SPACING_M, fs=FS, rng=rng), fs=FS, **MISMATCH)
     x[:, 600:900] += 3 * plane_wave_pair(rng.standard_normal(300), az_deg=10)
@@ -171,6 +167,10 @@ def _talker_bursts(seed: int, *, other: bool = False):
     return talk, apply_mismatch(noise, fs=FS, **MISMATCH)
 
 
+# the talker-blind mode of issue 16 (the level rule, its hold, and the start-up ramp)
+TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0}
+
+
 def _two_runs(partner: str, **params):
     """The calibration's traces on ``s + n`` and on its partner, and the replays of ``s``."""
     s, n = _talker_bursts(31)
@@ -196,7 +196,7 @@ def test_estimate_ignores_the_talker(partner):
     measured -69 dB of jitter over the 6 s here, -58 dB with the rules of before.)"""
     from benchmarks.distortion import speech_jitter_db
 
-    r1, r2, s = _two_runs(partner)
+    r1, r2, s = _two_runs(partner, **TALKER_BLIND)
     m = FIRST_BURST_DONE
     np.testing.assert_allclose(r2.trace["rear_gain_db"][:m], r1.trace["rear_gain_db"][:m], rtol=0, atol=1e-12)
     np.testing.assert_allclose(r2.trace["rear_phase_deg"][:m], r1.trace["rear_phase_deg"][:m], rtol=0, atol=1e-12)
@@ -206,11 +206,11 @@ def test_estimate_ignores_the_talker(partner):
 
 @pytest.mark.parametrize("partner", ["s - n", "other talker"])
 def test_cardioid_rules_alone_listen_to_the_talker(partner):
-    """The control of the test above, and the behaviour before issue 16: with only the two cardioid-ratio
-    freeze rules (``freeze_level_db=None``, no start-up ramp) the cells they leave open during the burst
+    """The control of the test above (the default, and the behaviour before issue 16): with only the two
+    cardioid-ratio freeze rules (``freeze_level_db=None``, no start-up ramp) the cells they leave open during the burst
     carry the talker (and its cross term with the noise, which changes sign with the noise): the two runs'
     estimates differ already by the end of the first burst (by more than 1e-3 dB in some bin)."""
-    r1, r2, _ = _two_runs(partner, freeze_level_db=None, ramp_frames=0.0)
+    r1, r2, _ = _two_runs(partner)
     m = FIRST_BURST_DONE
     assert np.max(np.abs(r2.trace["rear_gain_db"][:m] - r1.trace["rear_gain_db"][:m])) > 1e-3
 
@@ -237,12 +237,12 @@ def test_learning_mask_holds_the_level_rule_before_and_after():
 
 
 def test_blocks_match_one_pass_with_the_level_rule():
-    """Streaming (blocks of 1, 5, 37 and the rest) == one pass, default parameters (level rule, look ahead,
-    ramp): the carried state is complete.  Oracle: the same computation, to 1e-12."""
+    """Streaming (blocks of 1, 5, 37 and the rest) == one pass in the talker-blind mode (level rule, look
+    ahead, ramp): the carried state is complete.  Oracle: the same computation, to 1e-12."""
     from enhancers.mic_calibration import calibration_init, calibration_step
 
     s, n = _talker_bursts(32)
-    e = make("mic-calibration")
+    e = make("mic-calibration", **TALKER_BLIND)
     X = e.filterbank.analyze((s + n)[:, : 3 * FS])
     delay = e.delay_samples(FS)
     whole, fr_whole, _ = calibration_step(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=delay)

@@ -1,7 +1,11 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+        [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+
+``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
+and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
+both systems; without it, their defaults.
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -41,6 +45,14 @@ from scenesim.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0
+TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0}
+
+
+def _make(name: str, blind: bool):
+    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults."""
+    if not blind:
+        return make(name)
+    return make(name, **TALKER_BLIND) if name == "eb-robust" else make(name, eb=dict(TALKER_BLIND))
 
 
 def _snr(s_out, n_out, ref, latency) -> float:
@@ -49,7 +61,7 @@ def _snr(s_out, n_out, ref, latency) -> float:
     return M.snr_db(s_al, n_al)
 
 
-def measure_condition(cond, data_dir, names=SYSTEMS) -> list[dict]:
+def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> list[dict]:
     """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring)."""
     images = render_group(cond, data_dir)[0]
     rendered = images.mix(cond.snr_db)
@@ -57,7 +69,7 @@ def measure_condition(cond, data_dir, names=SYSTEMS) -> list[dict]:
     ref = rendered.reference[0]
     rows = []
     for name in names:
-        e = with_geometry(make(name), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+        e = with_geometry(_make(name, blind), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
         lat = int(e.tags.latency_samples)
         r1, r2 = e.process(s + n, cond.fs), e.process(s - n, cond.fs)
         w1s, w2s, w1n = r1.replay(s)[0], r2.replay(s)[0], r1.replay(n)[0]
@@ -73,12 +85,12 @@ def measure_condition(cond, data_dir, names=SYSTEMS) -> list[dict]:
     return rows
 
 
-def phone_rows(data_dir, *, seeds: int, snrs=None, progress=False) -> list[dict]:
+def phone_rows(data_dir, *, seeds: int, snrs=None, blind: bool = False, progress=False) -> list[dict]:
     rows = []
     for cond in load_sweep("phone").conditions():
         if cond.seed >= seeds or (snrs and cond.snr_db not in snrs):
             continue
-        rows += measure_condition(cond, data_dir)
+        rows += measure_condition(cond, data_dir, blind=blind)
         if progress:
             print(".", end="", flush=True)
     if progress:
@@ -123,11 +135,13 @@ def print_tables(rows, baseline: dict | None) -> None:
         print(f"| {key} | {v:.2f} | " + ("" if b is None else f"{b:.2f} | {v - b:+.2f}") + " |")
 
 
-def print_mismatch(seeds: int) -> None:
+def print_mismatch(seeds: int, blind: bool = False) -> None:
     print("\neb-robust mismatch loss (dB): ideal minus 1 dB / 5 deg rear mic, 20 s scored after 8 s, "
           f"mean of {seeds} seed(s); target <= 2 dB at 135, 240 deg and diffuse\n")
     print("| noise | ideal SNR-I | mismatched SNR-I | loss |\n| --- | ---: | ---: | ---: |")
-    per_seed = [snr_improvements(("eb-robust",), seconds=20.0, settle_s=8.0, seed=3 + 10 * k) for k in range(seeds)]
+    params = {"eb-robust": TALKER_BLIND} if blind else None
+    per_seed = [snr_improvements(("eb-robust",), seconds=20.0, settle_s=8.0, seed=3 + 10 * k, params=params)
+                for k in range(seeds)]
     for i in range(0, len(per_seed[0]), 2):
         ideal = np.mean([rows[i][2] for rows in per_seed])
         mism = np.mean([rows[i + 1][2] for rows in per_seed])
@@ -139,23 +153,26 @@ def main(argv=None) -> int:
     ap.add_argument("--data-dir", default=None, help="real recordings (default: the built-in synthetic data)")
     ap.add_argument("--seeds", type=int, default=5, help="the phone preset's first N seeds (default 5)")
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
+    ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
     ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
     ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
     ap.add_argument("--mismatch-seeds", type=int, default=1)
     ap.add_argument("--skip-mismatch", action="store_true")
     args = ap.parse_args(argv)
-    rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, progress=True)
+    rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, blind=args.blind, progress=True)
     baseline = None
     if args.baseline:
         with open(args.baseline) as f:
             baseline = json.load(f)
-    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(SYSTEMS)} conditions")
+    mode = "talker-blind " + json.dumps(TALKER_BLIND) if args.blind else "defaults"
+    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(SYSTEMS)} conditions, "
+          f"calibration: {mode}")
     print_tables(rows, baseline)
     if args.save_baseline:
         with open(args.save_baseline, "w") as f:
             json.dump(per_noise_means(rows), f, indent=1)
     if not args.skip_mismatch:
-        print_mismatch(args.mismatch_seeds)
+        print_mismatch(args.mismatch_seeds, args.blind)
     return 0
 
 
