@@ -1,7 +1,7 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+        [--noises babble ...] [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
 
 ``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
 and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
@@ -85,10 +85,10 @@ def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> 
     return rows
 
 
-def phone_rows(data_dir, *, seeds: int, snrs=None, blind: bool = False, progress=False) -> list[dict]:
+def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, progress=False) -> list[dict]:
     rows = []
     for cond in load_sweep("phone").conditions():
-        if cond.seed >= seeds or (snrs and cond.snr_db not in snrs):
+        if cond.seed >= seeds or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
             continue
         rows += measure_condition(cond, data_dir, blind=blind)
         if progress:
@@ -153,13 +153,15 @@ def main(argv=None) -> int:
     ap.add_argument("--data-dir", default=None, help="real recordings (default: the built-in synthetic data)")
     ap.add_argument("--seeds", type=int, default=5, help="the phone preset's first N seeds (default 5)")
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
+    ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
     ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
     ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
     ap.add_argument("--mismatch-seeds", type=int, default=1)
     ap.add_argument("--skip-mismatch", action="store_true")
     args = ap.parse_args(argv)
-    rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, blind=args.blind, progress=True)
+    rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
+                      progress=True)
     baseline = None
     if args.baseline:
         with open(args.baseline) as f:
