@@ -79,8 +79,39 @@ white noise, per-bin worst case): in diffuse noise 0.17 dB / 1.1 deg from 100 Hz
 0.25 dB / 2.2 deg to 4 kHz; one far-field plane wave at 135 or 240 deg 0.17 dB / 1 deg from
 100 Hz to 7 kHz; a near-field talker at +10 dB for 4 s moves it by 0.06 dB / 0.5 deg.
 
+Talker-blind mode (issue 16; off by default: ``freeze_level_db=None``, ``ramp_frames=0``).
+The cardioid rules leave cells open while the talker speaks -- where it is within 1-2 dB of
+its ratio's floor -- and at 15-25 dB input those cells are dominated by the talker x noise
+cross term, which changes sign with the noise: the estimate then differs between the runs
+on ``s + n`` and ``s - n`` (Hagerman's pair), i.e. the talker steers it.  With
+``freeze_level_db`` set (3 dB is the measured setting) the averages learn only from cells
+where the talker is absent:
+
+* a level rule: the power of both mics over ``level_band_hz`` (200-7000 Hz, leaving out the
+  bin and its neighbours), smoothed like the other rules, ``freeze_level_db`` above its
+  running minimum over ``level_floor_s`` (3 s, minimum statistics; the filter bank's
+  start-up frames are kept out of it) freezes the frame;
+* held ``level_hang_s`` (0.1 s) after it fired and ``level_ahead_s`` (0.1 s) before: the
+  averages run that far behind the input (``r_hat`` is 0.1 s late, nothing else is), so a
+  talker's onset, which rises over several frames, is frozen too;
+* ``ramp_frames`` (40): while a bin has ``n`` active frames the estimate applied is
+  ``r^min(1, n / ramp_frames)`` -- a few frames' estimate is noisy, and whatever of the
+  talker leaks into them weighs ``1/n`` each (wind, where the level rule leaves few frames).
+
+Where the talker is absent the two mixtures are the same up to sign, so W1 = W2 there
+(tests/test_mic_calibration.py: identical estimates through a talker burst).  ``eb-robust``
+then freezes beta and the DAS weight on the same mask.  Measured on ``phone`` (built-in data,
+5 seeds, ``python -m benchmarks.perf.calibration_jitter --blind``): ``eb-robust``'s
+``speech_jitter_db`` from -17..-9 dB (the worst row per noise at 15-25 dB input) to
+-30..-40 dB, replay and Hagerman SNR-I within 3 dB on 100 % of the rows (82 % before); but 1-6 dB
+less mean SNR-I (factory -6.4 dB) and 4-5 dB more loss from a 1 dB / 5 deg mismatch at 135
+/ 240 deg in ``benchmarks.perf.robust_eb``'s scene: with 6 s from a cold start, or
+babble/factory whose own level swings trip the level rule, the estimates learn from ~2 % of
+the cells.  Hence opt-in.
+
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
-estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the averages were frozen).
+estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
+without the level rule's look ahead: the mask beta and the DAS weight use).
 Latency ``frame_len - 1`` samples.
 """
 
@@ -255,14 +286,13 @@ def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_ha
 
 
 def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float):
-    """Cells where anything but the noise floor is present: ``(frozen (F, K), state changes)``.
+    """The level rule: ``(fires (F, K), state changes)``, True where more than the noise is present.
 
-    The power of both mics, one-pole smoothed (``lam``) like the other rules, against its
-    running minimum over ``level_floor_s`` (the noise floor: the minimum-statistics idea),
-    leaving out the bin and its neighbours as the other rules do.  Frozen where either the
-    band ``level_band_hz`` is ``freeze_level_db`` above its floor (a whole frame of speech), or
-    the bin's neighbours 2 to 5 bins away are ``freeze_level_bin_db`` above theirs (speech in a
-    band the noise leaves empty, e.g. above wind), and for ``level_hang_s`` after.
+    The power of both mics over ``level_band_hz`` (leaving out the bin and its neighbours, as the
+    other rules do: selecting on a cell's own power would bias its averages), one-pole smoothed
+    (``lam``), against its running minimum over ``level_floor_s`` (the noise floor, minimum
+    statistics); fires ``freeze_level_db`` above it.  The hold before and after is
+    :func:`_learning_mask`'s.
     """
     F, K = X1.shape
     if p.freeze_level_db is None:
@@ -457,6 +487,8 @@ class MicCalibration(StftEnhancer):
         the 1-s floor).
     gate_lam_cal, floor_lam_cal, floor_s : smoothing of the freeze ratios per frame (0.7), of the
         floor's ratio (None: the same), and the floor's window (1 s).
+    freeze_level_db, level_band_hz, level_floor_s, level_hang_s, level_ahead_s, ramp_frames : the
+        talker-blind mode (module docstring; None / 200-7000 Hz / 3 s / 0.1 s / 0.1 s / 0: off).
 
     Examples
     --------
