@@ -28,7 +28,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures, report_measures, report_reverb, report_sensors
+from benchmarks import figures, report_measures, report_reverb, report_sensors, report_tradeoff
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.html_report import write_index
@@ -483,6 +483,7 @@ def write_report(
     sweep_lines, sweep_paths = _sweeps_part(generic, fields, report_dir)
     fail_lines, fail_paths = _failures_part(all_rows, report_dir)
     phone_lines, phone_paths = report_sensors.phone_section(ok, report_dir)
+    phone_lines, phone_paths = report_tradeoff.extend((phone_lines, phone_paths), ok, report_dir)
     mismatch_lines, mismatch_paths = report_sensors.mismatch_section(ok, report_dir)
     flag_lines, flag_paths = report_sensors.honesty_section(ok, report_dir)
     reverb_lines, reverb_paths = report_reverb.reverb_sections(ok, report_dir)

@@ -163,8 +163,8 @@ def build_scene(cond: Condition):
 
 def _noise_channels(field_type: str) -> int:
     # Diffuse, incoherent and wind fields are built from two independent noise channels;
-    # point and spread sources from one recording (spread: disjoint excerpts of it).
-    return 1 if field_type in ("point", "spread") else 2
+    # point, spread and hall sources from one recording (spread, hall: disjoint excerpts of it).
+    return 1 if field_type in ("point", "spread", "hall") else 2
 
 
 def render_group(cond: Condition, data_dir: str | None):

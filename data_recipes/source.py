@@ -206,7 +206,9 @@ class DataSource:
         offsets ``len/n_channels`` apart.  Otherwise the type is synthesized
         (:func:`~data_recipes.noise_synthesis.synthesize_noise`, babble from this
         source's speech), with a :class:`DataFallbackWarning` when a directory was
-        given.  Every channel has RMS 0.1 (-20 dBFS).
+        given.  Every channel has RMS 0.1 (-20 dBFS).  A type ``<type>-<name>`` that is not
+        available itself is a variant of ``<type>`` and plays its noise (``factory-hall``: the
+        factory noise, which a sweep renders in another field).
 
         Raises
         ------
@@ -216,6 +218,9 @@ class DataSource:
         duration_s = check_positive("duration_s", duration_s)
         seed = check_int("seed", seed, minimum=0)
         n_channels = check_int("n_channels", n_channels, minimum=1)
+        if isinstance(noise_type, str) and noise_type not in self.noise_types() and "-" in noise_type:
+            # a variant "<type>-<name>" (e.g. "factory-hall": its own field in a sweep) plays <type>
+            noise_type = noise_type.split("-", 1)[0]
         if not isinstance(noise_type, str) or noise_type not in self.noise_types():
             raise ParameterError("noise_type", noise_type, "one of " + ", ".join(self.noise_types()))
         n = max(1, int(round(duration_s * self.fs)))

@@ -5,7 +5,8 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
 
 1. :func:`enhancers.mic_calibration.calibration_step` estimates the rear mic's complex
    response ``r_hat`` per bin (slow, frozen while a frontal talker dominates) and the rear
-   spectrum is divided by it;
+   spectrum is divided by it; in its talker-blind mode (``freeze_level_db`` set, issue 16:
+   learning only where the talker is absent) beta and the DAS weight freeze on its mask too;
 2. :func:`enhancers.subband_eb.subband_beta_step` adapts one real beta per bin on the
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain
@@ -122,8 +123,10 @@ class RobustElkoBeamformer(SubbandBase):
             r_hat, frozen, cal = calibration_step(X1, X2, cal, self.params, fs=fs, delay=self.delay_samples(fs))
             X2 = X2 / r_hat
             record.update(r_hat=r_hat, frozen=frozen)
-        # the DAS mix learns only where the calibration does too (no talker)
-        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=frozen)
+        # the DAS mix learns only where the calibration does too (no talker); with the calibration's
+        # level rule on (the talker-blind mode of issue 16) so does beta
+        talker_blind = self.params.calibrate and self.params.freeze_level_db is not None
+        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=frozen, beta_frozen=frozen if talker_blind else None)
         record.update(beam)
         return Y[None], (cal, sub), record
 

@@ -134,7 +134,7 @@ def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_w
 
 def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float, eps: float,
                       gate_db: float | None = None, gate_lam: float | None = None, gate_window: int = 0,
-                      extras: dict | None = None):
+                      extras: dict | None = None, also_frozen: np.ndarray | None = None):
     """Per-bin NLMS over the frames of one block (vectorised over bins; a loop over frames).
 
     Parameters
@@ -146,6 +146,8 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     gate_db, gate_lam, gate_window : adaptation gate (None: off); window in frames (0: no floor).
     extras : dict, optional
         Filled with ``"frozen"`` (the gate's mask or None) and ``"p1"`` (smoothed ``|X1|^2``, (F, K)).
+    also_frozen : bool (F, K), optional
+        Cells where beta must not learn either (OR-ed with the gate's mask).
 
     Returns
     -------
@@ -166,6 +168,9 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     if gate_db is not None:
         frozen, changes = _gate_frozen(cF, cB, state, gate_db=gate_db,
                                        lam=lam if gate_lam is None else gate_lam, n_window=gate_window)
+    if also_frozen is not None:
+        frozen = also_frozen if frozen is None else (frozen | also_frozen)
+    if frozen is not None:
         gain[frozen] = 0.0
         keep[frozen] = 1.0
     if extras is not None:
@@ -318,10 +323,11 @@ class SubbandBase(StftEnhancer):
         look = np.abs(G) * np.abs(2.0 * np.sin(wt))
         return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
 
-    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None):
+    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None):
         """``(Y (F, K), record, new state)`` for the frames of one block.
 
-        ``mix_frozen`` (F, K): bins where the DAS mix weight must not learn either (OR-ed with the gate).
+        ``mix_frozen`` (F, K): bins where the DAS mix weight must not learn either (OR-ed with the gate);
+        ``beta_frozen`` (F, K): the same for beta.
         """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
@@ -330,7 +336,7 @@ class SubbandBase(StftEnhancer):
             cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
             gate_db=None if p.adapt_gate_db is None else float(p.adapt_gate_db),
             gate_lam=None if p.gate_lam is None else float(p.gate_lam), gate_window=self._gate_window(fs),
-            extras=extras)
+            extras=extras, also_frozen=beta_frozen)
         G = self._eq(betas, fs)
         Y = G * (cF - betas * cB)
         record = {"beta": betas, "eq": G}

@@ -59,6 +59,7 @@ from scenesim.noise_fields import (
     sensor_noise,
     wind_noise,
 )
+from scenesim.noise_hall import hall_noise
 from scenesim.room import ShoeBox
 from scenesim.sensors import SensorModel
 from scenesim.validate import (
@@ -73,9 +74,10 @@ from scenesim.validate import (
 SCENE_FORMAT = "scenesim-scene-v2"
 """Part of every scene key; bumped when rendering changes its numbers."""
 
-NOISE_FIELDS = ("point", "diffuse", "incoherent", "wind", "spread")
+NOISE_FIELDS = ("point", "diffuse", "incoherent", "wind", "spread", "hall")
 """Noise field types: a point source; spherically isotropic; spatially white; wind with the
-Corcos coherence; ``n_sources`` point sources spread around the pair (babble in a room)."""
+Corcos coherence; ``n_sources`` point sources spread around the pair (babble in a room);
+``n_sources`` machines in a reverberant factory hall (:mod:`scenesim.noise_hall`)."""
 SNR_MODES = ("total", "active")
 REFERENCES = ("direct", "early50")
 EARLY_REFERENCE_S = 0.05
@@ -162,14 +164,15 @@ class NoiseSource(_Placed):
 
     Parameters
     ----------
-    field : {"point", "diffuse", "incoherent", "wind", "spread"}
+    field : {"point", "diffuse", "incoherent", "wind", "spread", "hall"}
         Point source (propagated like speech); spherically isotropic field; spatially
         incoherent noise; wind turbulence with the Corcos coherence
         (:func:`scenesim.noise_fields.wind_noise`); or ``n_sources`` point sources at seeded
         random places (in a room: anywhere at least 0.5 m from the pair and 0.2 m from the
         walls; in free field: plane waves from random directions), each playing its own
-        excerpt of the noise -- babble from talkers spread around a room.  The placement
-        is used by "point" only.
+        excerpt of the noise -- babble from talkers spread around a room; or ``n_sources``
+        machines in a reverberant hall of their own (:mod:`scenesim.noise_hall`).  The
+        placement is used by "point" only.
     azimuth_deg, distance_m, elevation_deg, position_m
         As in :class:`SourcePlacement` (default: 270 deg, broadside, 1 m).
     gain_db : float
@@ -177,7 +180,7 @@ class NoiseSource(_Placed):
     wind_speed_mps, flow_azimuth_deg : float
         "wind" only: wind speed (m/s) and the flow direction re the array axis (deg).
     n_sources : int
-        "spread" only: how many sources.
+        "spread" and "hall" only: how many sources.
     """
 
     field: str = "point"
@@ -597,6 +600,9 @@ def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneIm
             )
         elif src.field == "spread":
             img = _render_spread(scene, src, k, n, arr, rng, rirs)
+        elif src.field == "hall":
+            machines = independent_channels(n, n_channels=src.n_sources, rng=rng, source=None if arr is None else arr[0])
+            img = hall_noise(machines, scene.pair, fs=scene.fs, seed=scene.seed, c=scene.speed_of_sound_mps)
         else:
             img = incoherent_noise(n, rng=rng, source=arr)
         noise_image += 10.0 ** (src.gain_db / 20.0) * img

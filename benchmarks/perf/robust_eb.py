@@ -93,8 +93,8 @@ def _scene(noise_kind: str, seconds: float, seed: int):
     return s, v
 
 
-def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3) -> list[tuple]:
-    """Rows ``(noise, mismatch label, SNR-I per enhancer...)`` for one seed."""
+def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3, params=None) -> list[tuple]:
+    """Rows ``(noise, mismatch label, SNR-I per enhancer...)`` for one seed (``params``: per-name overrides)."""
     rows = []
     for kind in ("135", "240", "diffuse", "wind"):
         s0, v0 = _scene(kind, seconds, seed)
@@ -104,7 +104,7 @@ def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3) -
             start = int(settle_s * FS)
             snr_in = 10 * np.log10(_power(s[0], start) / _power(v[0], start))
             for name in names:
-                e = enhancers.make(name)
+                e = enhancers.make(name, **(params or {}).get(name, {}))
                 r = e.process(s + v, FS)
                 lat = e.tags.latency_samples
                 snr_out = 10 * np.log10(_power(r.replay(s), start + lat) / _power(r.replay(v), start + lat))

@@ -1,0 +1,182 @@
+"""Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
+
+    python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
+        [--noises babble ...] [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+
+``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
+and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
+both systems; without it, their defaults.
+
+On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
+``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
+(operation ``W1``) and on ``s - n`` (``W2``), Hagerman & Olofsson's pair -- it prints:
+
+1. ``speech_jitter_db`` (:func:`benchmarks.distortion.speech_jitter_db` of ``W1 s`` and ``W2 s``,
+   latency-aligned) per noise and input SNR: max over seeds (target <= -30 dB for
+   ``eb-robust-ss`` where the input SNR is >= 15 dB) and mean;
+2. the fraction of rows whose replay SNR-I (``W1 s`` over ``W1 n``) and Hagerman SNR-I
+   (``(y1 + y2) / 2`` over ``(y1 - y2) / 2``) are within 3 dB (target >= 95 %), measured as
+   :func:`benchmarks.evaluate.evaluate_enhancer` measures them (same alignment, same input SNR);
+3. mean replay SNR-I per noise, and with ``--baseline FILE`` (written by ``--save-baseline`` on
+   another version of the code) the change (target: no more than 1 dB below);
+4. issue 12's mismatch loss (:func:`benchmarks.perf.robust_eb.snr_improvements`: 20 s, scored
+   after 8 s, speech 45 deg, babble at 135 / 240 deg or diffuse, wind; ideal minus 1 dB / 5 deg
+   rear mic) for ``eb-robust`` (target <= 2 dB at 135, 240 deg and diffuse).
+
+Cost: every condition is rendered once and each system run twice (plus replays); the full
+``phone`` (5 seeds, 90 conditions) takes a few minutes on one core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections import defaultdict
+
+import numpy as np
+
+from benchmarks import metrics as M
+from benchmarks.distortion import speech_jitter_db
+from benchmarks.perf.robust_eb import snr_improvements
+from benchmarks.sweep import load_sweep
+from benchmarks.worker import render_group
+from enhancers.registry import make, with_geometry
+from scenesim.geometry import SPEED_OF_SOUND_MPS
+
+SYSTEMS = ("eb-robust", "eb-robust-ss")
+AGREE_DB = 3.0
+TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0}
+
+
+def _make(name: str, blind: bool):
+    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults."""
+    if not blind:
+        return make(name)
+    return make(name, **TALKER_BLIND) if name == "eb-robust" else make(name, eb=dict(TALKER_BLIND))
+
+
+def _snr(s_out, n_out, ref, latency) -> float:
+    s_al, _ = M.align(s_out, ref, latency_samples=latency)
+    n_al, _ = M.align(n_out, ref, latency_samples=latency)
+    return M.snr_db(s_al, n_al)
+
+
+def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> list[dict]:
+    """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring)."""
+    images = render_group(cond, data_dir)[0]
+    rendered = images.mix(cond.snr_db)
+    s, n = rendered.speech_image, rendered.noise_image
+    ref = rendered.reference[0]
+    rows = []
+    for name in names:
+        e = with_geometry(_make(name, blind), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+        lat = int(e.tags.latency_samples)
+        r1, r2 = e.process(s + n, cond.fs), e.process(s - n, cond.fs)
+        w1s, w2s, w1n = r1.replay(s)[0], r2.replay(s)[0], r1.replay(n)[0]
+        a1, _ = M.align(w1s, ref, latency_samples=lat)
+        a2, _ = M.align(w2s, ref, latency_samples=lat)
+        m = a1.size
+        snr_in = M.snr_db(s[0][:m], n[0][:m])
+        y1, y2 = r1.output[0], r2.output[0]
+        rows.append(dict(system=name, noise=cond.noise, snr=cond.snr_db, seed=cond.seed,
+                         jitter=speech_jitter_db(a1, a2),
+                         replay=_snr(w1s, w1n, ref, lat) - snr_in,
+                         hagerman=_snr(0.5 * (y1 + y2), 0.5 * (y1 - y2), ref, lat) - snr_in))
+    return rows
+
+
+def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, progress=False) -> list[dict]:
+    rows = []
+    for cond in load_sweep("phone").conditions():
+        if cond.seed >= seeds or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
+            continue
+        rows += measure_condition(cond, data_dir, blind=blind)
+        if progress:
+            print(".", end="", flush=True)
+    if progress:
+        print()
+    return rows
+
+
+def _group(rows, *keys):
+    out = defaultdict(list)
+    for r in rows:
+        out[tuple(r[k] for k in keys)].append(r)
+    return out
+
+
+def per_noise_means(rows) -> dict[str, float]:
+    """``{"system/noise": mean replay SNR-I}``."""
+    return {f"{s}/{nz}": float(np.mean([r["replay"] for r in g])) for (s, nz), g in sorted(_group(rows, "system", "noise").items())}
+
+
+def print_tables(rows, baseline: dict | None) -> None:
+    print("\nspeech_jitter_db (max / mean over seeds); target <= -30 dB for eb-robust-ss at input SNR >= 15 dB\n")
+    print("| system | noise | " + " | ".join(f"{snr:g} dB" for snr in sorted({r['snr'] for r in rows})) + " |")
+    print("| --- | --- |" + " ---: |" * len({r["snr"] for r in rows}))
+    for (sysname, noise), g in sorted(_group(rows, "system", "noise").items()):
+        cells = []
+        for _snr, gs in sorted(_group(g, "snr").items()):
+            j = [r["jitter"] for r in gs]
+            cells.append(f"{max(j):.1f} / {np.mean(j):.1f}")
+        print(f"| {sysname} | {noise} | " + " | ".join(cells) + " |")
+    hi = [r["jitter"] for r in rows if r["system"] == "eb-robust-ss" and r["snr"] >= 15]
+    if hi:
+        print(f"\neb-robust-ss worst jitter at >= 15 dB: {max(hi):.1f} dB ({sum(j > -30 for j in hi)} of {len(hi)} rows above -30 dB)")
+    print(f"\nreplay vs Hagerman SNR-I within {AGREE_DB:g} dB (target >= 95 % for eb-robust-ss)\n")
+    print("| system | rows within | max abs diff (dB) |\n| --- | ---: | ---: |")
+    for (sysname,), g in sorted(_group(rows, "system").items()):
+        d = np.abs([r["replay"] - r["hagerman"] for r in g])
+        print(f"| {sysname} | {np.mean(d <= AGREE_DB):.0%} ({int(np.sum(d <= AGREE_DB))}/{d.size}) | {d.max():.1f} |")
+    print("\nmean replay SNR-I per noise (dB)" + (" vs baseline (target: change >= -1 dB)" if baseline else "") + "\n")
+    print("| system/noise | SNR-I | baseline | change |\n| --- | ---: | ---: | ---: |")
+    for key, v in per_noise_means(rows).items():
+        b = (baseline or {}).get(key)
+        print(f"| {key} | {v:.2f} | " + ("" if b is None else f"{b:.2f} | {v - b:+.2f}") + " |")
+
+
+def print_mismatch(seeds: int, blind: bool = False) -> None:
+    print("\neb-robust mismatch loss (dB): ideal minus 1 dB / 5 deg rear mic, 20 s scored after 8 s, "
+          f"mean of {seeds} seed(s); target <= 2 dB at 135, 240 deg and diffuse\n")
+    print("| noise | ideal SNR-I | mismatched SNR-I | loss |\n| --- | ---: | ---: | ---: |")
+    params = {"eb-robust": TALKER_BLIND} if blind else None
+    per_seed = [snr_improvements(("eb-robust",), seconds=20.0, settle_s=8.0, seed=3 + 10 * k, params=params)
+                for k in range(seeds)]
+    for i in range(0, len(per_seed[0]), 2):
+        ideal = np.mean([rows[i][2] for rows in per_seed])
+        mism = np.mean([rows[i + 1][2] for rows in per_seed])
+        print(f"| {per_seed[0][i][0]} | {ideal:.1f} | {mism:.1f} | {ideal - mism:.1f} |")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data-dir", default=None, help="real recordings (default: the built-in synthetic data)")
+    ap.add_argument("--seeds", type=int, default=5, help="the phone preset's first N seeds (default 5)")
+    ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
+    ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
+    ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
+    ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
+    ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
+    ap.add_argument("--mismatch-seeds", type=int, default=1)
+    ap.add_argument("--skip-mismatch", action="store_true")
+    args = ap.parse_args(argv)
+    rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
+                      progress=True)
+    baseline = None
+    if args.baseline:
+        with open(args.baseline) as f:
+            baseline = json.load(f)
+    mode = "talker-blind " + json.dumps(TALKER_BLIND) if args.blind else "defaults"
+    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(SYSTEMS)} conditions, "
+          f"calibration: {mode}")
+    print_tables(rows, baseline)
+    if args.save_baseline:
+        with open(args.save_baseline, "w") as f:
+            json.dump(per_noise_means(rows), f, indent=1)
+    if not args.skip_mismatch:
+        print_mismatch(args.mismatch_seeds, args.blind)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
