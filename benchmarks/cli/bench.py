@@ -14,6 +14,12 @@ from benchmarks.progress import slow_rir_warning
 from benchmarks.signals import sigterm_as_interrupt
 from scenesim.errors import ParameterError
 
+#: Shown where PESQ appears (bench list, README install section): licence and install needs.
+PESQ_NOTICE = (
+    "source-only on PyPI (pip compiles it: needs a C compiler) and bundles the ITU-T P.862 "
+    "reference code, whose licence restricts use to evaluation"
+)
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
@@ -186,6 +192,10 @@ def _list(args) -> int:
     print("\nEnhancers (name, version, source package):")
     for row in describe():
         print(f"  {row['name']:<14} v{row['version']:<6} {row['source']:<20} {row['summary']}")
+
+    print("\nMetrics (every results row):")
+    print("  SNR-I (replay), segmental SNR, SI-SDR, STOI/ESTOI (pystoi, MIT),")
+    print(f"  PESQ nb/wb (pesq package): {PESQ_NOTICE}")
 
     data_dir = args.data_dir or os.environ.get("SCENESIM_DATA") or None
     print(f"\nNoise types ({data_dir or 'built-in synthesized noises'}):")
