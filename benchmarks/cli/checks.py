@@ -8,39 +8,36 @@ the user typed and the way out, so ``main`` prints one ``scenesim: error:`` line
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import sqlite3
 import tempfile
 from pathlib import Path
 
 from scenesim.errors import DataError, ParameterError
+from scenesim.validate import PHYSICAL_RANGES, check_physical
 
 # The lowest rate the CLI accepts: the telephone band.  The built-in test signal is band
 # limited to 100 Hz - 4 kHz and the enhancers' filter banks and speech metrics are designed
 # for 8 or 16 kHz; below 8 kHz scipy filter design fails or the "speech" is aliased noise.
-MIN_FS_HZ = 8000
+MIN_FS_HZ, MAX_FS_HZ = PHYSICAL_RANGES["fs"][:2]
 
-# SNRs outside this range are almost certainly typos (an SNR of 200 dB is below the float
-# resolution of the mixture; -100 dB leaves no speech to enhance).
-SNR_RANGE_DB = (-50.0, 80.0)
+# SNRs outside this range are almost certainly typos (one table with the sweep files').
+SNR_RANGE_DB = PHYSICAL_RANGES["snr_db"][:2]
 
 
 def check_cli_fs(option: str, fs: int | None) -> int | None:
     """``fs`` if it is None or an integer >= :data:`MIN_FS_HZ`, else a ParameterError naming ``option``."""
-    if fs is not None and not fs >= MIN_FS_HZ:
+    if fs is not None and not MIN_FS_HZ <= fs <= MAX_FS_HZ:
         raise ParameterError(
-            option, fs, f"a sampling rate >= {MIN_FS_HZ} Hz (speech band and filters need it), e.g. 16000"
+            option, fs, f"a sampling rate in [{MIN_FS_HZ}, {MAX_FS_HZ}] Hz (speech band and filters need "
+            f">= {MIN_FS_HZ} Hz), e.g. 16000"
         )
     return fs
 
 
 def check_snr_db(option: str, snr_db: float) -> float:
     """``snr_db`` if it is finite and within :data:`SNR_RANGE_DB`, else a ParameterError naming ``option``."""
-    lo, hi = SNR_RANGE_DB
-    if not (math.isfinite(snr_db) and lo <= snr_db <= hi):
-        raise ParameterError(option, snr_db, f"an SNR in [{lo:g}, {hi:g}] dB")
-    return snr_db
+    return check_physical(option, snr_db, "snr_db")
 
 
 def _why(exc: OSError) -> str:
