@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from scenesim.errors import ScenesimError
+from scenesim.errors import ParameterError, ScenesimError
 
 #: Metrics compared by default (the inputs are the same in both stores, so an output
 #: difference is also the difference of improvements).
@@ -91,6 +91,19 @@ def _label(group: str) -> dict[str, Any]:
     return {k: params.get(k) for k in _LABEL_KEYS}
 
 
+def check_metric_columns(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> None:
+    """Raise a ParameterError naming ``--metrics`` for a column the rows lack or that holds text."""
+    columns = list(rows[0]) if rows else []
+    numeric = [c for c in columns if any(isinstance(r.get(c), (int, float)) and not isinstance(r.get(c), bool)
+                                         for r in rows)]
+    for metric in metrics:
+        texts = [r[metric] for r in rows if isinstance(r.get(metric), str)] if metric in columns else []
+        if metric not in columns or texts or metric not in numeric:
+            what = "a text column" if texts else "not a column of the store"
+            raise ParameterError("--metrics", metric, f"a numeric result column ({metric!r} is {what}); e.g. "
+                                 + ", ".join(c for c in DEFAULT_METRICS if c in numeric))
+
+
 def compare_rows(
     rows_a: Sequence[Mapping[str, Any]],
     rows_b: Sequence[Mapping[str, Any]],
@@ -104,6 +117,7 @@ def compare_rows(
     SweepMismatch
         If the stores' condition ids differ or they share no enhancer.
     """
+    check_metric_columns(rows_a, metrics)
     conds_a = {r["condition_id"] for r in rows_a}
     conds_b = {r["condition_id"] for r in rows_b}
     if conds_a != conds_b:

@@ -549,6 +549,8 @@ def load_sweep(preset_or_path: str | Path) -> Sweep:
     path = Path(text_arg)
     if text_arg in PRESETS and not path.is_file():
         return parse_sweep(preset_text(text_arg), source=text_arg, default_name=text_arg)
+    if path.is_dir():
+        raise ConfigError(f"{text_arg} is a directory: expected a preset ({', '.join(PRESETS)}) or a .toml file")
     if path.suffix.lower() != ".toml" and not path.is_file():
         raise ConfigError(
             f"unknown preset {text_arg!r}: expected one of {', '.join(PRESETS)} or a .toml file"
@@ -557,6 +559,10 @@ def load_sweep(preset_or_path: str | Path) -> Sweep:
         text = path.read_text("utf-8")
     except OSError as exc:
         raise ConfigError(f"cannot read sweep file {text_arg}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        line = path.read_bytes()[: exc.start].count(b"\n") + 1
+        raise ConfigError(f"{text_arg}: line {line}: not UTF-8 text (byte {exc.object[exc.start]:#04x}); "
+                          "save the sweep file as UTF-8") from None
     return parse_sweep(text, source=text_arg, default_name=path.stem)
 
 

@@ -126,6 +126,11 @@ def _run(args) -> int:
     for note in summary.warnings:
         print(f"scenesim: warning: {note}", file=sys.stderr)
     print(f"scenesim bench: {sweep.name}: {summary.line()}", file=sys.stderr)
+    failed = _failed_rows_line(summary)
+    if failed:
+        print(failed, file=sys.stderr)
+        if summary.n_errors == summary.n_rows:
+            return 1
     print(f"results: {summary.store_path}")
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
@@ -141,6 +146,21 @@ def _run(args) -> int:
         )
         return 1
     return 0
+
+
+def _failed_rows_line(summary) -> str | None:
+    """One line when rows of this run failed: all (an error; the caller exits 1) or some (a warning)."""
+    if not summary.n_errors:
+        return None
+    from benchmarks.store import ResultStore
+
+    with ResultStore.open(summary.out_dir, readonly=True) as store:
+        rows = store.rows("status = 'error' AND run_id = ?", (summary.run_id,))
+        first = next((r["error"] for r in rows if r.get("error")), "no message")
+    hint = f"first error: {first}; rerun failed rows with --retry-errors"
+    if summary.n_errors == summary.n_rows:
+        return f"scenesim: error: all {summary.n_rows} rows of this run failed ({hint})"
+    return f"scenesim: warning: {summary.n_errors} of {summary.n_rows} rows of this run failed ({hint})"
 
 
 @contextlib.contextmanager

@@ -1,0 +1,92 @@
+"""Issue 15 part 2, ``bench run``/``compare``/sweep files: a run whose rows all failed exits
+non-zero (some failed: says how many); unreadable or misnamed sweep inputs and unknown
+``--metrics`` give one line naming what was typed; plugin names that cannot work are refused."""
+
+from __future__ import annotations
+
+import pytest
+
+from benchmarks.cli.main import main
+
+SWEEP = """[axes]
+enhancers = ["passthrough", "ss"]
+noise = ["wind"]
+snr_db = [5]
+[fixed]
+duration_s = 0.5
+"""
+
+
+def _run(tmp_path, capsys, monkeypatch=None, n_failed=0):
+    """``bench run`` of a 2-row sweep; with ``n_failed``, the first rows of the run are stored as
+    failed instead (a worker's crash cannot be forced from here: workers are separate processes)."""
+    import dataclasses
+
+    import benchmarks.runner as runner
+
+    real = runner.run_sweep
+
+    def failing(sweep, out, **kwargs):
+        summary = real(sweep, out, **kwargs)
+        from benchmarks.store import ResultStore
+
+        with ResultStore.open(out) as store:
+            rows = store.rows("run_id = ?", (summary.run_id,))[:n_failed]
+            store.write_rows([{**r, "status": "error", "error": "boom in the enhancer"} for r in rows])
+        return dataclasses.replace(summary, n_errors=n_failed)
+
+    if monkeypatch is not None:
+        monkeypatch.setattr(runner, "run_sweep", failing)
+    path = tmp_path / "s.toml"
+    path.write_text(SWEEP, "utf-8")
+    rc = main(["bench", "run", str(path), "--out", str(tmp_path / "out"), "--workers", "1", "--no-report"])
+    return rc, capsys.readouterr().err
+
+
+def test_a_run_whose_rows_all_failed_exits_non_zero_and_says_why(tmp_path, capsys, monkeypatch):
+    rc, err = _run(tmp_path, capsys, monkeypatch, n_failed=2)
+    assert rc == 1, err
+    assert "scenesim: error: all 2 rows of this run failed" in err and "boom in the enhancer" in err, err
+
+
+def test_a_partly_failed_run_says_how_many(tmp_path, capsys, monkeypatch):
+    rc, err = _run(tmp_path, capsys, monkeypatch, n_failed=1)
+    assert rc == 0, err
+    assert "scenesim: warning: 1 of 2 rows of this run failed" in err, err
+
+
+def test_a_clean_run_says_nothing_about_failures(tmp_path, capsys):
+    rc, err = _run(tmp_path, capsys)
+    assert rc == 0 and "failed" not in err, err
+
+
+def test_non_utf8_sweep_file_is_one_line_naming_the_line(tmp_path, capsys):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes('[axes]\nenhancers = ["eb"]\n# café\n'.encode("latin-1"))
+    assert main(["bench", "run", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("scenesim: error:") and "line 3" in err and "UTF-8" in err and "\n" not in err, err
+
+
+def test_a_directory_passed_as_the_sweep_is_called_a_directory(tmp_path, capsys):
+    assert main(["bench", "run", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "is a directory" in err and "unknown preset" not in err, err
+
+
+@pytest.mark.parametrize("metric, needle", [("no_such_column", "not a column"), ("enhancer", "a text column")])
+def test_compare_metrics_must_be_numeric_columns_of_a_real_store(metric, needle, tmp_path, capsys):
+    rc, _ = _run(tmp_path, capsys)
+    assert rc == 0
+    store = str(tmp_path / "out")
+    assert main(["bench", "compare", store, store, "--out", str(tmp_path / "c"), "--metrics", metric]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"scenesim: error: Parameter --metrics='{metric}'") and needle in err, err
+    assert main(["bench", "compare", store, store, "--out", str(tmp_path / "c"), "--metrics", "snr_i_db"]) == 0
+
+
+@pytest.mark.parametrize("name", ["none", "true", "tags", "enhancer", "params", "result"])
+def test_plugin_names_that_would_not_import_are_refused(name, tmp_path, capsys):
+    assert main(["plugin", "new", name, "--dest", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert f"NAME='{name}'" in err and "keyword" in err and not (tmp_path / "p").exists(), err
