@@ -90,3 +90,51 @@ def test_plugin_names_that_would_not_import_are_refused(name, tmp_path, capsys):
     assert main(["plugin", "new", name, "--dest", str(tmp_path / "p")]) == 2
     err = capsys.readouterr().err
     assert f"NAME='{name}'" in err and "keyword" in err and not (tmp_path / "p").exists(), err
+
+
+_FILL_UNDER_A_SIZE_LIMIT = """
+import resource, signal, sqlite3, sys
+from pathlib import Path
+from benchmarks.cli.checks import corrupt_store_error
+path = Path(sys.argv[1])
+db = sqlite3.connect(path)
+db.execute("CREATE TABLE results (x BLOB)")
+db.execute("INSERT INTO results VALUES (x'00')")
+db.commit()
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a kill, as with a quota
+resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, resource.RLIM_INFINITY))
+try:
+    for _ in range(100):
+        db.execute("INSERT INTO results VALUES (?)", (b"x" * 10_000,))
+        db.commit()
+except sqlite3.DatabaseError as exc:
+    print(corrupt_store_error(path, exc))
+"""
+
+
+def test_a_refused_write_is_not_called_corruption_and_the_store_stays_readable(tmp_path):
+    import sqlite3
+    import subprocess
+    import sys
+
+    path = tmp_path / "results.sqlite"
+    proc = subprocess.run([sys.executable, "-c", _FILL_UNDER_A_SIZE_LIMIT, str(path)],
+                          capture_output=True, text=True, check=True)
+    message = proc.stdout.strip()
+    assert message.startswith("could not write the results store") and "intact" in message, proc
+    assert "corrupt" not in message and "mv " not in message and "Move it aside" not in message
+    with sqlite3.connect(path) as db:  # the advice is right: the store is healthy
+        assert db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        assert db.execute("SELECT COUNT(*) FROM results").fetchone()[0] >= 1
+
+
+def test_a_damaged_store_is_still_called_corrupt(tmp_path):
+    import sqlite3
+
+    from benchmarks.cli.checks import corrupt_store_error
+
+    path = tmp_path / "results.sqlite"
+    path.write_bytes(b"not a database" * 500)
+    with pytest.raises(sqlite3.DatabaseError) as info:
+        sqlite3.connect(path).execute("SELECT * FROM sqlite_master").fetchall()
+    assert "Move it aside" in str(corrupt_store_error(path, info.value))
