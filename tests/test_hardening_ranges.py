@@ -93,3 +93,28 @@ def test_simulate_refuses_with_the_option_typed(args, option, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"scenesim: error: Parameter {option}=") and "expected" in err, err
     assert not (tmp_path / "o" / "mixture.wav").exists()
+
+
+RIR = ["rir", "--dims", "4", "5", "3", "--pair-center", "2", "2.5", "1.5", "--source", "1", "1", "1"]
+
+
+def test_rir_refuses_an_rt60_past_the_physical_range(tmp_path, capsys):
+    assert main([*RIR, "--rt60", "30", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "--rt60=30.0" in err and physical_range_text("rt60_s") in err and not (tmp_path / "o").exists()
+
+
+def test_rir_warns_before_a_slow_render_like_bench_run(tmp_path, capsys, monkeypatch):
+    import scenesim.render
+    from scenesim.errors import ScenesimError
+
+    def stop(*args, **kwargs):  # the render would take ~18 min: stop where it would start
+        raise ScenesimError("render reached")
+
+    monkeypatch.setattr(scenesim.render, "room_rir", stop)
+    assert main([*RIR, "--rt60", "8", "--out", str(tmp_path / "o")]) == 2
+    warning, error = capsys.readouterr().err.strip().splitlines()
+    assert warning.startswith("scenesim: warning: RT60 8 s") and "min to render" in warning
+    assert "render reached" in error
+    assert main([*RIR, "--rt60", "8", "--method", "hybrid", "--out", str(tmp_path / "o")]) == 2
+    assert "warning" not in capsys.readouterr().err  # the hybrid tail is fast: nothing to announce
