@@ -138,3 +138,18 @@ def test_a_damaged_store_is_still_called_corrupt(tmp_path):
     with pytest.raises(sqlite3.DatabaseError) as info:
         sqlite3.connect(path).execute("SELECT * FROM sqlite_master").fetchall()
     assert "Move it aside" in str(corrupt_store_error(path, info.value))
+
+
+def test_reordering_enhancers_is_the_same_version_and_another_sweep_is_named(tmp_path, capsys):
+    rc, _ = _run(tmp_path, capsys)
+    assert rc == 0
+    out = str(tmp_path / "out")
+    swapped = tmp_path / "s.toml"
+    swapped.write_text(SWEEP.replace('["passthrough", "ss"]', '["ss", "passthrough"]'), "utf-8")
+    assert main(["bench", "run", str(swapped), "--out", out, "--workers", "1", "--no-report"]) == 0
+    assert "0 computed, 1 already stored" in capsys.readouterr().err
+    other = tmp_path / "other.toml"
+    other.write_text(SWEEP.replace("snr_db = [5]", "snr_db = [10]"), "utf-8")
+    assert main(["bench", "run", str(other), "--out", out, "--workers", "1", "--no-report"]) == 2
+    err = capsys.readouterr().err
+    assert "of sweep 's', not 'other'" in err and "another version of sweep 'other'" not in err, err
