@@ -153,3 +153,11 @@ def test_reordering_enhancers_is_the_same_version_and_another_sweep_is_named(tmp
     assert main(["bench", "run", str(other), "--out", out, "--workers", "1", "--no-report"]) == 2
     err = capsys.readouterr().err
     assert "of sweep 's', not 'other'" in err and "another version of sweep 'other'" not in err, err
+
+
+def test_a_data_dir_that_is_a_file_is_called_a_file(tmp_path, capsys):
+    a_file = tmp_path / "data"
+    a_file.write_text("not a folder", "utf-8")
+    assert main(["bench", "run", "smoke", "--out", str(tmp_path / "o"), "--data-dir", str(a_file)]) == 2
+    err = capsys.readouterr().err
+    assert "is a file, not a directory" in err and "does not exist" not in err, err
