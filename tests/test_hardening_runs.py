@@ -161,3 +161,34 @@ def test_a_data_dir_that_is_a_file_is_called_a_file(tmp_path, capsys):
     assert main(["bench", "run", "smoke", "--out", str(tmp_path / "o"), "--data-dir", str(a_file)]) == 2
     err = capsys.readouterr().err
     assert "is a file, not a directory" in err and "does not exist" not in err, err
+
+
+def test_a_killed_runs_row_is_marked_when_its_stale_lock_is_cleared(tmp_path, capsys):
+    # What kill -9 leaves: a runs row 'running' and a lock file naming a dead pid (flock released).
+    import json
+    import sqlite3
+
+    from benchmarks.lock import LOCK_NAME
+    from benchmarks.store import ResultStore
+
+    out = tmp_path / "out"
+    out.mkdir()
+    with ResultStore.open(out) as store:
+        dead = store.start_run(sweep="s", source="s.toml", config_toml=SWEEP, options={}, executor="local",
+                               workers=1, scheduler=None, data_dir=None)
+    (out / LOCK_NAME).write_text(json.dumps({"pid": 999999, "host": "h", "started": "t"}))
+    rc, err = _run(tmp_path, capsys)
+    assert rc == 0 and "marked 1 run(s)" in err and "'killed'" in err, err
+    status = dict(sqlite3.connect(out / "results.sqlite").execute("SELECT run_id, status FROM runs").fetchall())
+    assert status.pop(dead) == "killed" and list(status.values()) == ["finished"], status
+
+
+def test_progress_says_a_block_is_computing_before_the_first_condition_finishes():
+    import io
+
+    from benchmarks.progress import LineProgress
+
+    progress = LineProgress(6, "s", stream=io.StringIO())
+    assert "the first block of conditions is computing" in progress.line()
+    progress.update(6)
+    assert "computing" not in progress.line() and progress.line().startswith("6/6 conditions (100 %)")

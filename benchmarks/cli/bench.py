@@ -110,6 +110,7 @@ def _run(args) -> int:
         print(f"scenesim: warning: {slow}", file=sys.stderr)
     with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
         check_store_readable(out / "results.sqlite")  # a damaged store: say so before writing to it
+        _mark_killed_runs(out)
         summary = run_sweep(
             sweep,
             out,
@@ -146,6 +147,18 @@ def _run(args) -> int:
         )
         return 1
     return 0
+
+
+def _mark_killed_runs(out: Path) -> None:
+    """With the lock held, a ``runs`` row still 'running' belongs to a run that was killed."""
+    from benchmarks.store import STORE_NAME, ResultStore
+
+    if (out / STORE_NAME).is_file():
+        with ResultStore.open(out) as store:
+            n = store.mark_abandoned_runs()
+        if n:
+            print(f"scenesim: warning: marked {n} run(s) that ended without finishing as 'killed' "
+                  "in the store's runs table; their rows are kept", file=sys.stderr)
 
 
 def _failed_rows_line(summary) -> str | None:
