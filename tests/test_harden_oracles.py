@@ -69,3 +69,37 @@ def test_wind_convection_delay_matches_the_travel_time_of_frozen_turbulence(flow
     rear_lead = -lags[int(np.argmax(corr))]  # rear[n - lead] matches front[n]
     expected = d * np.cos(np.deg2rad(flow_deg)) / (CONVECTION_RATIO * speed) * FS
     assert abs(rear_lead - expected) <= 3, (rear_lead, expected)
+
+
+def test_moving_source_default_rir_length_is_the_documented_one():
+    # Default path (neither length_s nor max_order): 1.2 x RT60 + the longest direct path of
+    # the trajectory (scenesim.ism.default_length_s, from the farthest path point), written
+    # out here from the documented rule; tolerance one tap (rounding).
+    from scenesim.moving import render_moving_source
+    from scenesim.room import ShoeBox
+
+    room = ShoeBox((4.0, 5.0, 3.0), rt60_s=0.2)
+    mics = np.array([[2.0, 2.5, 1.5], [2.02, 2.5, 1.5]])
+    path = np.array([[1.0, 1.0, 1.0], [3.0, 4.0, 1.2]])  # the far end is the start
+    x = np.random.default_rng(0).standard_normal(1600)
+    y = render_moving_source(x, room, path, mics, fs=FS)
+    longest = max(float(np.max(np.linalg.norm(mics - p, axis=1))) for p in path)
+    expected_taps = (1.2 * 0.2 + longest / room.c) * FS
+    assert abs((y.shape[1] - x.size + 1) - expected_taps) <= 1.0
+
+
+def test_tolerance_draws_are_independent_between_the_mics():
+    # Each mic's sensitivity (and corner) is its own uniform draw in nominal +- tol: over 400
+    # phones the front/rear correlation is ~N(0, 1/20) (|r| < 0.2 is 4 sigma), each marginal
+    # has the uniform's variance tol^2 / 3 (+-15 %), and no phone has equal gains.
+    from scenesim.sensors import SensorModel, SensorTolerance
+
+    tol = SensorTolerance(gain_tol_db=1.0, highpass_tol_hz=20.0)
+    nominal = SensorModel.from_mismatch(highpass_hz=100.0)
+    phones = [tol.draw(nominal, seed=s) for s in range(400)]
+    gains = np.array([[m.gain_db for m in p.mics] for p in phones])
+    corners = np.array([[m.highpass_hz for m in p.mics] for p in phones])
+    for draws, spread in ((gains, 1.0), (corners - 100.0, 20.0)):
+        assert abs(np.corrcoef(draws.T)[0, 1]) < 0.2
+        np.testing.assert_allclose(draws.var(axis=0), spread**2 / 3, rtol=0.15)
+        assert np.all(draws[:, 0] != draws[:, 1])
