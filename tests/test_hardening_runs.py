@@ -4,6 +4,7 @@ non-zero (some failed: says how many); unreadable or misnamed sweep inputs and u
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from benchmarks.cli.main import main
@@ -192,3 +193,26 @@ def test_progress_says_a_block_is_computing_before_the_first_condition_finishes(
     assert "the first block of conditions is computing" in progress.line()
     progress.update(6)
     assert "computing" not in progress.line() and progress.line().startswith("6/6 conditions (100 %)")
+
+
+def test_load_results_on_a_real_sweeps_store(tmp_path, capsys):
+    # Issue 15 part 5: hand-made stores lack the columns real sweeps write.  Oracle: the store
+    # read row by row with sqlite; the frame keeps every column, its order and numeric types.
+    import sqlite3
+
+    pytest.importorskip("pandas")
+    from benchmarks.results_frame import load_results
+    from benchmarks.store import COLUMNS
+
+    rc, _ = _run(tmp_path, capsys)
+    assert rc == 0
+    out = tmp_path / "out"
+    db = sqlite3.connect(out / "results.sqlite")
+    names = [r[1] for r in db.execute("PRAGMA table_info(results)")]
+    stored = db.execute("SELECT enhancer, snr_i_db, pesq_nb_out, condition_json FROM results ORDER BY rowid").fetchall()
+    df = load_results(out, ok_only=True)
+    assert set(df.columns) == set(names) and list(df.columns[:5]) == [c for c in COLUMNS if c in names][:5]
+    assert list(df["enhancer"]) == [r[0] for r in stored] == ["passthrough", "ss"]
+    np.testing.assert_allclose(df["snr_i_db"].to_numpy(dtype=float), [r[1] for r in stored], rtol=0, atol=0)
+    assert df["snr_i_db"].iloc[0] == pytest.approx(0.0, abs=1e-9) and df["snr_i_db"].iloc[1] != 0.0
+    assert df["pesq_nb_out"].dtype.kind == "f" and df["condition_json"].iloc[0] == stored[0][3]
