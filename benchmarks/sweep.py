@@ -56,7 +56,13 @@ import numpy as np
 from scenesim.errors import ConfigError, ParameterError, ScenesimError
 from scenesim.room import RT60_METHODS
 from scenesim.scene import NOISE_FIELDS, REFERENCES, SNR_MODES
-from scenesim.validate import check_outside_pair, check_physical, check_seed, check_snr_band
+from scenesim.validate import (
+    PHYSICAL_RANGES,
+    check_outside_pair,
+    check_physical,
+    check_seed,
+    check_snr_band,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -472,7 +478,9 @@ class Sweep:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise ParameterError("seed", seed, "an integer >= 0")
         top = max(self.axes["seed"]) + self.seed_offset
-        check_seed("seed", seed + top)  # the store keeps seeds as SQLite's signed 64-bit integers
+        limit = PHYSICAL_RANGES["seed"][1] - top  # the store keeps seeds as SQLite's 64-bit integers
+        if seed > limit:
+            raise ParameterError("seed", seed, f"an integer in [0, {limit}] (the sweep's seeds go up to {top})")
         return dataclasses.replace(self, seed_offset=self.seed_offset + seed)
 
     @property

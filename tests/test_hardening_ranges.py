@@ -76,7 +76,7 @@ def test_seed_offset_beyond_sqlite_integers_is_refused():
     from scenesim.errors import ParameterError
 
     sweep = parse_sweep(HEAD + "seed = 5\n")
-    with pytest.raises(ParameterError, match="9223372036854775807"):
+    with pytest.raises(ParameterError, match=r"\[0, 9223372036854775802\]"):
         sweep.with_seed(2**63 - 5)
 
 
@@ -118,3 +118,11 @@ def test_rir_warns_before_a_slow_render_like_bench_run(tmp_path, capsys, monkeyp
     assert "render reached" in error
     assert main([*RIR, "--rt60", "8", "--method", "hybrid", "--out", str(tmp_path / "o")]) == 2
     assert "warning" not in capsys.readouterr().err  # the hybrid tail is fast: nothing to announce
+
+
+def test_bench_seed_offset_past_sqlite_integers_names_the_option_typed(tmp_path, capsys):
+    path = tmp_path / "s.toml"
+    path.write_text(HEAD.replace("snr_db = [0]", "snr_db = [0]\nseeds = [0, 1]"), "utf-8")
+    assert main(["bench", "run", str(path), "--out", str(tmp_path / "o"), "--seed", str(2**63 - 1)]) == 2
+    err = capsys.readouterr().err
+    assert f"--seed={2**63 - 1}" in err and f"[0, {2**63 - 2}]" in err and not (tmp_path / "o").exists(), err

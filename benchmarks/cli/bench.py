@@ -8,7 +8,12 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from benchmarks.cli.checks import check_store_readable, corrupt_store_error, prepare_out_dir
+from benchmarks.cli.checks import (
+    check_store_readable,
+    corrupt_store_error,
+    options_named,
+    prepare_out_dir,
+)
 from benchmarks.lock import run_lock
 from benchmarks.progress import slow_rir_warning
 from benchmarks.signals import sigterm_as_interrupt
@@ -100,6 +105,9 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     sweep = load_sweep(args.sweep)
+    if args.seed:  # offset seeds must stay SQLite integers: refuse before any work, naming --seed
+        with options_named({"seed": "--seed"}):
+            sweep.with_seed(args.seed)
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 
