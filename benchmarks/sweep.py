@@ -165,12 +165,13 @@ def _or_none(check, word):
 
 def _corners(value):
     # One corner for both mics, or [front, rear]; 0 = no high-pass.
-    what = "a corner in Hz >= 0, or [front, rear]"
+    lo, hi = PHYSICAL_RANGES["highpass_hz"][:2]
+    what = f"a corner in Hz in [{lo:g}, {hi:g}], or [front, rear]"
     if isinstance(value, list):
         if len(value) != 2:
             raise ValueError(what)
-        return tuple(_number(v, lo=0.0, hi=2000.0, what=what) for v in value)
-    v = _number(value, lo=0.0, hi=2000.0, what=what)
+        return tuple(_number(v, lo=lo, hi=hi, what=what) for v in value)
+    v = _number(value, lo=lo, hi=hi, what=what)
     return (v, v)
 
 

@@ -114,6 +114,8 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, str, str]] = {
     "rt60_s": (0.0, 20.0, "s", "an RT60 (0 = anechoic)"),
     # SQLite stores integers as signed 64-bit.
     "seed": (0, 2**63 - 1, "", "a seed"),
+    # A mic's high-pass corner: above 2 kHz it removes the speech band (phone MEMS: 20-200 Hz).
+    "highpass_hz": (0.0, 2000.0, "Hz", "a high-pass corner"),
     # Speed of sound: -50 to +60 degC air.
     "c_mps": (300.0, 400.0, "m/s", "a speed of sound"),
     # The CLI's lowest rate is the telephone band; above 192 kHz no audio interface records.

@@ -86,7 +86,8 @@ def test_seed_offset_beyond_sqlite_integers_is_refused():
      (["--distance-m", "0.015"], "--distance-m"), (["--duration-s", "1e7"], "--duration-s"),
      (["--fs", "10000000"], "--fs"), (["--seed", str(2**63)], "--seed"),
      (["--rt60", "30", "--room", "5", "4", "3"], "--rt60"), (["--snr-band-hz", "6000", "7000"], "--snr-band-hz"),
-     (["--field", "wind", "--wind-speed-mps", "-1"], "--wind-speed-mps")],
+     (["--field", "wind", "--wind-speed-mps", "-1"], "--wind-speed-mps"),
+     (["--mic-highpass-hz", "5000"], "--mic-highpass-hz")],
 )  # fmt: skip
 def test_simulate_refuses_with_the_option_typed(args, option, tmp_path, capsys):
     assert main(["simulate", "--out", str(tmp_path / "o"), *args]) == 2

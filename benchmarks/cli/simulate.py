@@ -306,6 +306,8 @@ def check_physical_options(args) -> None:
             check_physical(option, getattr(args, attr), quantity)
     for value in args.room or ():
         check_physical("--room", value, "room_dim_m")
+    for value in args.mic_highpass_hz or ():
+        check_physical("--mic-highpass-hz", value, "highpass_hz")
     check_outside_pair("--distance-m", args.distance_m, args.spacing_m)
     if args.snr_band_hz is not None:
         check_snr_band("--snr-band-hz", tuple(args.snr_band_hz), args.fs)
