@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from scenesim.errors import ScenesimError
+from scenesim.errors import ParameterError, ScenesimError
 
 #: Metrics compared by default (the inputs are the same in both stores, so an output
 #: difference is also the difference of improvements).
@@ -91,6 +91,18 @@ def _label(group: str) -> dict[str, Any]:
     return {k: params.get(k) for k in _LABEL_KEYS}
 
 
+def check_metric_columns(rows: Sequence[Mapping[str, Any]], metrics: Sequence[str]) -> None:
+    """Raise a ParameterError naming ``--metrics`` for a column that holds text, or an unknown name
+    (the default metrics are known names: stores written before a column existed lack it)."""
+    columns = list(rows[0]) if rows else []
+    for metric in metrics:
+        texts = [r[metric] for r in rows if isinstance(r.get(metric), str)] if metric in columns else []
+        if texts or (metric not in columns and metric not in DEFAULT_METRICS):
+            what = "a text column" if texts else "not a column of the store"
+            raise ParameterError("--metrics", metric, f"a numeric result column ({metric!r} is {what}); e.g. "
+                                 + ", ".join(c for c in DEFAULT_METRICS if c in columns))
+
+
 def compare_rows(
     rows_a: Sequence[Mapping[str, Any]],
     rows_b: Sequence[Mapping[str, Any]],
@@ -104,6 +116,7 @@ def compare_rows(
     SweepMismatch
         If the stores' condition ids differ or they share no enhancer.
     """
+    check_metric_columns(rows_a, metrics)
     conds_a = {r["condition_id"] for r in rows_a}
     conds_b = {r["condition_id"] for r in rows_b}
     if conds_a != conds_b:

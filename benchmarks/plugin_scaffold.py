@@ -21,6 +21,7 @@ Example
 
 from __future__ import annotations
 
+import keyword
 import re
 import string
 from pathlib import Path
@@ -45,11 +46,27 @@ def class_name(name: str) -> str:
     return "".join(part.capitalize() for part in name.split("-"))
 
 
+def _template_globals() -> set[str]:
+    """Names the generated modules import (a class of the same name would shadow them)."""
+    names = set()
+    for template in (_ENHANCER, _TEST, _INIT):
+        for m in re.finditer(r"^(?:from \S+ )?import (.+)$", template, flags=re.M):
+            names.update(part.split(" as ")[-1].strip() for part in m.group(1).split(","))
+    return {n for n in names if n.isidentifier()}
+
+
 def _check_name(name: str) -> str:
     if not isinstance(name, str) or not NAME_PATTERN.match(name) or len(name) > _MAX_NAME:
         raise ParameterError(
             "NAME", name,
             f"lowercase letters and digits in words joined by '-', starting with a letter, at most {_MAX_NAME} characters (e.g. 'my-denoiser')",
+        )
+    cls = class_name(name)
+    if keyword.iskeyword(cls) or cls in _template_globals():
+        raise ParameterError(
+            "NAME", name,
+            f"a name whose class {cls!r} is no Python keyword and does not shadow a name the "
+            f"template imports ({', '.join(sorted(_template_globals()))}); e.g. 'my-{name}'",
         )
     from enhancers.registry import available
 

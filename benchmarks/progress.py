@@ -73,7 +73,10 @@ class LineProgress:
         elapsed = time.monotonic() - self._t0
         left = f", ~{elapsed * (self.total - n) / n:.0f} s left" if n else ""
         pct = 100.0 * n / self.total if self.total else 100.0
-        return f"{n}/{self.total} conditions ({pct:.0f} %), {errors} errors, {elapsed:.0f} s elapsed{left}"
+        # Conditions are counted as their block (a geometry group) finishes: until the first one
+        # does, say that work is under way rather than let "0 %" read as a hang.
+        busy = ": the first block of conditions is computing" if n == 0 and self.total else ""
+        return f"{n}/{self.total} conditions ({pct:.0f} %){busy}, {errors} errors, {elapsed:.0f} s elapsed{left}"
 
     def _beat(self) -> None:
         while not self._stop.wait(self.interval_s):

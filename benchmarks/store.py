@@ -297,6 +297,15 @@ class ResultStore:
             )
         return run_id
 
+    def mark_abandoned_runs(self) -> int:
+        """Mark runs still ``running`` as ``killed``; call only while holding the run lock (then
+        no live run can be writing, so these ended without finishing, e.g. ``kill -9``)."""
+        with self._db:
+            cur = self._db.execute(
+                "UPDATE runs SET status='killed', finished_at=? WHERE status='running'", (utc_now(),)
+            )
+        return cur.rowcount
+
     def finish_run(self, run_id: str, *, status: str, n_rows_written: int, n_errors: int) -> None:
         with self._db:
             self._db.execute(

@@ -53,9 +53,16 @@ from typing import Any
 
 import numpy as np
 
-from scenesim.errors import ConfigError, ParameterError
+from scenesim.errors import ConfigError, ParameterError, ScenesimError
 from scenesim.room import RT60_METHODS
 from scenesim.scene import NOISE_FIELDS, REFERENCES, SNR_MODES
+from scenesim.validate import (
+    PHYSICAL_RANGES,
+    check_outside_pair,
+    check_physical,
+    check_seed,
+    check_snr_band,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -88,18 +95,27 @@ def _finite(value):
     return _number(value)
 
 
-def _nonneg(value):
-    return _number(value, lo=0.0, what="a number >= 0")
-
-
 def _positive(value):
     return _number(value, lo=0.0, lo_open=True, what="a number > 0")
 
 
 def _seed(value):
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise ValueError("an integer >= 0")
-    return int(value)
+    try:
+        return check_seed("seed", value)
+    except ParameterError as exc:
+        raise ValueError(exc.allowed) from None
+
+
+def _physical(quantity):
+    """The validator of a quantity of :data:`scenesim.validate.PHYSICAL_RANGES` (shared with the CLI)."""
+
+    def check(value):
+        try:
+            return check_physical(quantity, value, quantity)
+        except ParameterError as exc:
+            raise ValueError(exc.allowed) from None
+
+    return check
 
 
 def _fs(value):
@@ -149,12 +165,13 @@ def _or_none(check, word):
 
 def _corners(value):
     # One corner for both mics, or [front, rear]; 0 = no high-pass.
-    what = "a corner in Hz >= 0, or [front, rear]"
+    lo, hi = PHYSICAL_RANGES["highpass_hz"][:2]
+    what = f"a corner in Hz in [{lo:g}, {hi:g}], or [front, rear]"
     if isinstance(value, list):
         if len(value) != 2:
             raise ValueError(what)
-        return tuple(_number(v, lo=0.0, hi=2000.0, what=what) for v in value)
-    v = _number(value, lo=0.0, hi=2000.0, what=what)
+        return tuple(_number(v, lo=lo, hi=hi, what=what) for v in value)
+    v = _number(value, lo=lo, hi=hi, what=what)
     return (v, v)
 
 
@@ -210,12 +227,12 @@ _REQUIRED = object()
 PARAMETERS: dict[str, _Param] = {
     # Order = expansion order, outermost first: geometry outside, noise then SNR innermost.
     "fs": _Param(_fs, 16000, "sampling rate in Hz"),
-    "duration_s": _Param(_positive, 8.0, "length of the speech and noise signals in s"),
+    "duration_s": _Param(_physical("duration_s"), 8.0, "length of the speech and noise signals in s"),
     "noise_field": _Param(
         _noise_field, "point", "noise field type, or a table noise type -> field type"
     ),
     "far_field": _Param(_bool, True, "plane-wave (far-field) free-field propagation"),
-    "spacing_m": _Param(_positive, 0.0214, "mic spacing in m"),
+    "spacing_m": _Param(_physical("spacing_m"), 0.0214, "mic spacing in m"),
     # The sensors (scenesim.sensors): nominal rear-re-front mismatch, high-pass corners,
     # self-noise against a speech level, and the production spread drawn per seed.
     "mic_gain_db": _Param(_in_range(-10.0, 10.0, "dB"), 0.0, "rear mic sensitivity re front in dB"),
@@ -256,14 +273,14 @@ PARAMETERS: dict[str, _Param] = {
     "snr_mode": _Param(_choice(SNR_MODES), "total", "how the input SNR is defined"),
     "reference": _Param(_choice(REFERENCES), "direct", "reference speech for the metrics"),
     "room": _Param(_room_name, None, "a room name from [rooms.<name>] (ignored when rt60_s = 0)"),
-    "rt60_s": _Param(_nonneg, 0.0, "reverberation time in s; 0 = anechoic free field"),
-    "noise_distance_m": _Param(_positive, 1.0, "noise source distance from the pair centre in m"),
-    "distance_m": _Param(_positive, 1.0, "talker distance from the pair centre in m"),
-    "speech_az_deg": _Param(_finite, 45.0, "talker azimuth in degrees (endfire = 0)"),
-    "noise_az_deg": _Param(_finite, 270.0, "noise source azimuth in degrees"),
+    "rt60_s": _Param(_physical("rt60_s"), 0.0, "reverberation time in s; 0 = anechoic free field"),
+    "noise_distance_m": _Param(_physical("distance_m"), 1.0, "noise source distance from the pair centre in m"),
+    "distance_m": _Param(_physical("distance_m"), 1.0, "talker distance from the pair centre in m"),
+    "speech_az_deg": _Param(_physical("azimuth_deg"), 45.0, "talker azimuth in degrees (endfire = 0)"),
+    "noise_az_deg": _Param(_physical("azimuth_deg"), 270.0, "noise source azimuth in degrees"),
     "noise": _Param(_noise_type, _REQUIRED, "noise type"),
     "seed": _Param(_seed, 0, "seed of the speech/noise excerpts and the scene"),
-    "snr_db": _Param(_finite, _REQUIRED, "input SNR in dB"),
+    "snr_db": _Param(_physical("snr_db"), _REQUIRED, "input SNR in dB"),
 }
 
 _AXIS_ALIASES = {"seeds": "seed"}  # axis spelling -> parameter
@@ -461,6 +478,10 @@ class Sweep:
         """The same sweep with the seeds axis offset by ``seed`` (``seeds = [0]`` becomes ``[seed]``)."""
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise ParameterError("seed", seed, "an integer >= 0")
+        top = max(self.axes["seed"]) + self.seed_offset
+        limit = PHYSICAL_RANGES["seed"][1] - top  # the store keeps seeds as SQLite's 64-bit integers
+        if seed > limit:
+            raise ParameterError("seed", seed, f"an integer in [0, {limit}] (the sweep's seeds go up to {top})")
         return dataclasses.replace(self, seed_offset=self.seed_offset + seed)
 
     @property
@@ -537,6 +558,8 @@ def load_sweep(preset_or_path: str | Path) -> Sweep:
     path = Path(text_arg)
     if text_arg in PRESETS and not path.is_file():
         return parse_sweep(preset_text(text_arg), source=text_arg, default_name=text_arg)
+    if path.is_dir():
+        raise ConfigError(f"{text_arg} is a directory: expected a preset ({', '.join(PRESETS)}) or a .toml file")
     if path.suffix.lower() != ".toml" and not path.is_file():
         raise ConfigError(
             f"unknown preset {text_arg!r}: expected one of {', '.join(PRESETS)} or a .toml file"
@@ -545,6 +568,10 @@ def load_sweep(preset_or_path: str | Path) -> Sweep:
         text = path.read_text("utf-8")
     except OSError as exc:
         raise ConfigError(f"cannot read sweep file {text_arg}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        line = path.read_bytes()[: exc.start].count(b"\n") + 1
+        raise ConfigError(f"{text_arg}: line {line}: not UTF-8 text (byte {exc.object[exc.start]:#04x}); "
+                          "save the sweep file as UTF-8") from None
     return parse_sweep(text, source=text_arg, default_name=path.stem)
 
 
@@ -598,6 +625,7 @@ class _Parser:
             raise self.error(table, "rt60_s", "rt60_s > 0 needs a room: define [rooms.<name>] and set room")
         params = self._enhancer_params(data.get("enhancer_params", {}), enhancers)
         self._check_sensor_keys(axes, data)
+        self._check_distances(axes, data)
 
         sweep = Sweep(
             name=name,
@@ -609,6 +637,7 @@ class _Parser:
             axes=axes,
             rooms=rooms,
         )
+        self._check_room_rt60(sweep, data)
         self._check_geometry(sweep, data)
         return sweep
 
@@ -653,14 +682,14 @@ class _Parser:
                 raise self.error(where, "pair_center_m", f"{list(center)} is not inside the room {list(dims)}")
             az = spec.get("axis_azimuth_deg", 0.0)
             try:
-                az = _finite(az)
+                az = _physical("azimuth_deg")(az)
             except ValueError as exc:
                 raise self.error(where, "axis_azimuth_deg", f"expected {exc}, got {az!r}") from None
             rooms[name] = Room(name=name, dims_m=dims, pair_center_m=center, axis_azimuth_deg=az)
         return rooms
 
     def _triple(self, where, key, value, *, positive):
-        check = _positive if positive else _finite
+        check = _physical("room_dim_m") if positive else _finite
         if not isinstance(value, list) or len(value) != 3:
             raise self.error(where, key, f"expected a list of 3 numbers in m, got {value!r}")
         try:
@@ -714,6 +743,10 @@ class _Parser:
         for e in enh:
             if e.split("@")[0] not in known:
                 raise self.error(("axes",), "enhancers", f"unknown enhancer {e!r}; available: {', '.join(known)}")
+            try:  # a known name with an unknown version (eb@99)
+                _enhancer_spec(e)
+            except ScenesimError as exc:
+                raise self.error(("axes",), "enhancers", str(exc)) from None
         return values, tuple(enh)
 
     def _enhancer_params(self, table: dict, enhancers: Sequence[str]) -> dict[str, dict]:
@@ -747,14 +780,42 @@ class _Parser:
                         "noise_field",
                         f"no field for noise {', '.join(map(repr, missing))}; add it to the table",
                     )
-        nyquist = min(axes["fs"]) / 2
         for band in axes["snr_band_hz"]:
-            if band is not None and band[1] > nyquist:
-                raise self.error(
-                    self._table_of("snr_band_hz", data),
-                    "snr_band_hz",
-                    f"upper edge {band[1]:g} Hz is above fs/2 = {nyquist:g} Hz",
-                )
+            try:
+                if band is not None:
+                    check_snr_band("snr_band_hz", band, min(axes["fs"]))
+            except ParameterError as exc:
+                raise self.error(self._table_of("snr_band_hz", data), "snr_band_hz",
+                                 f"expected {exc.allowed}, got {list(band)}") from None
+
+    def _check_distances(self, axes: Mapping[str, tuple], data: dict) -> None:
+        """Every talker/noise distance (and drawn range) keeps the source outside the mic pair."""
+        spacing = max(axes["spacing_m"])
+        for key in ("distance_m", "noise_distance_m"):
+            range_key = _RANGE_KEYS.get(key)
+            for dist in _with_range(axes[key], axes.get(range_key), 2):
+                try:
+                    check_outside_pair(key, dist, spacing)
+                except ParameterError as exc:
+                    shown = range_key if dist not in axes[key] else key
+                    raise self.error(self._table_of(shown, data), shown,
+                                     f"expected {exc.allowed} (spacing_m), got {dist:g}") from None
+
+    def _check_room_rt60(self, sweep: Sweep, data: dict) -> None:
+        """Each room can reach each RT60: Sabine absorption <= 1 (the rule ShoeBox applies to every method)."""
+        from scenesim.rt60 import sabine_absorption
+
+        for room in sweep.rooms.values():
+            if room.name not in sweep.axes["room"]:
+                continue
+            for rt60 in sweep.axes["rt60_s"]:
+                try:
+                    if rt60 > 0:
+                        sabine_absorption(rt60, room.dims_m)
+                except ParameterError as exc:
+                    raise self.error(self._table_of("rt60_s", data), "rt60_s",
+                                     f"room {room.name!r} {list(room.dims_m)} m cannot have RT60 {rt60:g} s: "
+                                     f"expected {exc.allowed}") from None
 
     def _check_geometry(self, sweep: Sweep, data: dict) -> None:
         """Every source must lie inside its room (the image-source method needs it)."""
@@ -800,6 +861,12 @@ def _available_enhancers() -> list[str]:
     from enhancers.registry import available
 
     return list(available())
+
+
+def _enhancer_spec(name: str):
+    from enhancers.registry import get_spec
+
+    return get_spec(name)
 
 
 def _check_enhancer_params(name: str, params: dict) -> None:

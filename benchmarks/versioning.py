@@ -66,7 +66,13 @@ def sweep_config(sweep: Sweep) -> dict[str, Any]:
 
 
 def config_version(config: Mapping[str, Any]) -> str:
-    """12 hex digits of SHA-256 over the canonical JSON of a :func:`sweep_config`."""
+    """12 hex digits of SHA-256 over the canonical JSON of a :func:`sweep_config`.
+
+    The order of ``enhancers`` is not content (each row is one enhancer): it is sorted first,
+    so stores written before this rule keep their version when their list was already sorted,
+    and a reordered list is the same version.
+    """
+    config = {**config, "enhancers": sorted(config.get("enhancers", []))}
     text = json.dumps(config, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 
@@ -127,10 +133,14 @@ def check_version(store, sweep: Sweep, *, out_dir, new_version: bool = False) ->
         old = stored_config(store)
         if old is not None and config_version(old) != version:
             if not new_version:
+                runs = store.runs()
+                stored_name = runs[-1].get("sweep") if runs else None
+                what = (f"another version of sweep {sweep.name!r}" if stored_name in (None, sweep.name)
+                        else f"sweep {stored_name!r}, not {sweep.name!r}")
                 raise SweepVersionError(
-                    f"{out_dir} holds {store.count()} rows of another version of sweep "
-                    f"{sweep.name!r} ({describe_changes(old, config)}); use a new --out, or "
-                    "--new-version to move those rows to table results_previous and start over"
+                    f"{out_dir} holds {store.count()} rows of {what} ({describe_changes(old, config)}); "
+                    "use a new --out, or --new-version to move those rows to table results_previous "
+                    "and start over"
                 )
             store.archive_rows()
     store.set_meta(META_CONFIG, json.dumps(config, sort_keys=True))

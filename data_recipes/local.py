@@ -184,7 +184,8 @@ def scan_local(root: Path | str, *, hash_files: bool = True) -> LocalScan:
     """
     root = Path(root).expanduser()
     if not root.is_dir():
-        raise DataError(f"data directory {root} does not exist (expected speech/ and noise/ inside)")
+        what = "is a file, not a directory" if root.exists() else "does not exist"
+        raise DataError(f"data directory {root} {what} (expected speech/ and noise/ inside)")
     if not (root / "speech").is_dir() and not (root / "noise").is_dir():
         raise DataError(
             f"data directory {root} has neither speech/ nor noise/: expected speech/*.wav|flac "

@@ -53,7 +53,7 @@ def prepare_noisex92(
     min_duration_s = check_positive("min_duration_s", min_duration_s)
     src = Path(src).expanduser()
     if not src.is_dir():
-        raise DataError(f"NOISEX-92 folder {src} does not exist")
+        raise DataError(f"NOISEX-92 folder {src} {'is a file, not a folder' if src.exists() else 'does not exist'}")
     found = {}
     for path in sorted(src.iterdir()):
         stem = path.stem.lower()

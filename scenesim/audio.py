@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -76,12 +78,31 @@ def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
         raise DataError(f"cannot read audio file {path}: {exc}") from exc
     if data.size == 0:
         raise DataError(f"audio file {path} has no samples")
+    _warn_if_truncated(path, data.shape)
     x = np.ascontiguousarray(data.T)
     if not np.all(np.isfinite(x)):
         raise DataError(f"audio file {path} contains NaN or Inf samples")
     if fs is not None and fs != file_fs:
         return resample(x, file_fs, fs), fs
     return x, int(file_fs)
+
+
+def _warn_if_truncated(path: Path, shape: tuple[int, int]) -> None:
+    """Warn when the header promises more samples than the file holds (a cut-off copy or
+    download): libsndfile reads what is there and notes the shortfall in its log only."""
+    try:
+        with sf.SoundFile(str(path)) as f:
+            log = f.extra_info
+    except (sf.LibsndfileError, RuntimeError, OSError):  # pragma: no cover - it was just read
+        return
+    m = re.search(r"^data\s*:\s*(\d+)\s*\(should be (\d+)\)", log, flags=re.M)
+    if m and int(m.group(1)) > int(m.group(2)):
+        promised = int(m.group(1)) * shape[0] // max(int(m.group(2)), 1)
+        warnings.warn(
+            f"audio file {path} is shorter than its header says ({shape[0]} of {promised} samples "
+            f"per channel): it was probably cut off; using the {shape[0]} samples present",
+            stacklevel=3,
+        )
 
 
 def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = False) -> Path:

@@ -158,8 +158,10 @@ def corcos_coherence(
         gamma(f) = exp(-2 pi f (alpha_along dx + alpha_across dy) / Uc)
                    * exp(-j 2 pi f d cos(th) / Uc)
 
-    The phase is the travel time of the frozen turbulence from the front mic to the rear
-    (flow along +axis reaches the rear mic later).  Returns complex ``(n_freqs,)``.
+    The phase is the travel time of the frozen turbulence between the mics: a flow along
+    +axis (theta = 0, towards the front mic at +d/2) passes the rear mic first, so the rear
+    signal leads by ``d cos(th) / Uc`` (tests/test_harden_oracles.py measures that lag).
+    Returns complex ``(n_freqs,)``.
 
     >>> g = corcos_coherence([100.0, 500.0], 0.0214, wind_speed_mps=5.0)
     >>> [round(float(v), 2) for v in np.abs(g)]

@@ -96,5 +96,5 @@ def test_kill_9_mid_sweep_then_resume(tmp_path):
         assert {r[0] for r in db.execute("SELECT status FROM results")} == {"ok"}
     finally:
         db.close()
-    assert statuses == ["running", "finished"]  # the killed run never finished
+    assert statuses == ["killed", "finished"]  # the killed run never finished: marked by the next one
     assert n_second == total - n_before

@@ -167,7 +167,7 @@ def test_wrong_type_names_key_and_line():
     msg = _error_for(MINIMAL.replace("snr_db = [0, 5]", 'snr_db = [0, "five"]'))
     assert "line 7" in msg and "axes.snr_db" in msg and "'five'" in msg, msg
     msg = _error_for(MINIMAL.replace("duration_s = 2.0", "duration_s = -2.0"))
-    assert "line 11" in msg and "fixed.duration_s" in msg and "> 0" in msg, msg
+    assert "line 11" in msg and "fixed.duration_s" in msg and "[0.25, 120] s" in msg, msg
     msg = _error_for(MINIMAL.replace("duration_s = 2.0", 'far_field = "yes"'))
     assert "line 11" in msg and "fixed.far_field" in msg, msg
 

@@ -8,11 +8,22 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from benchmarks.cli.checks import check_store_readable, corrupt_store_error, prepare_out_dir
+from benchmarks.cli.checks import (
+    check_store_readable,
+    corrupt_store_error,
+    options_named,
+    prepare_out_dir,
+)
 from benchmarks.lock import run_lock
 from benchmarks.progress import slow_rir_warning
 from benchmarks.signals import sigterm_as_interrupt
 from scenesim.errors import ParameterError
+
+#: Shown where PESQ appears (bench list, README install section): licence and install needs.
+PESQ_NOTICE = (
+    "source-only on PyPI (pip compiles it: needs a C compiler) and bundles the ITU-T P.862 "
+    "reference code, whose licence restricts use to evaluation"
+)
 
 
 def add_parser(subparsers) -> None:
@@ -94,6 +105,9 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     sweep = load_sweep(args.sweep)
+    if args.seed:  # offset seeds must stay SQLite integers: refuse before any work, naming --seed
+        with options_named({"seed": "--seed"}):
+            sweep.with_seed(args.seed)
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 
@@ -104,6 +118,7 @@ def _run(args) -> int:
         print(f"scenesim: warning: {slow}", file=sys.stderr)
     with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
         check_store_readable(out / "results.sqlite")  # a damaged store: say so before writing to it
+        _mark_killed_runs(out)
         summary = run_sweep(
             sweep,
             out,
@@ -120,6 +135,11 @@ def _run(args) -> int:
     for note in summary.warnings:
         print(f"scenesim: warning: {note}", file=sys.stderr)
     print(f"scenesim bench: {sweep.name}: {summary.line()}", file=sys.stderr)
+    failed = _failed_rows_line(summary)
+    if failed:
+        print(failed, file=sys.stderr)
+        if summary.n_errors == summary.n_rows:
+            return 1
     print(f"results: {summary.store_path}")
     if summary.report_files:
         index = next((f for f in summary.report_files if f.suffix == ".md"), summary.report_files[0])
@@ -135,6 +155,33 @@ def _run(args) -> int:
         )
         return 1
     return 0
+
+
+def _mark_killed_runs(out: Path) -> None:
+    """With the lock held, a ``runs`` row still 'running' belongs to a run that was killed."""
+    from benchmarks.store import STORE_NAME, ResultStore
+
+    if (out / STORE_NAME).is_file():
+        with ResultStore.open(out) as store:
+            n = store.mark_abandoned_runs()
+        if n:
+            print(f"scenesim: warning: marked {n} run(s) that ended without finishing as 'killed' "
+                  "in the store's runs table; their rows are kept", file=sys.stderr)
+
+
+def _failed_rows_line(summary) -> str | None:
+    """One line when rows of this run failed: all (an error; the caller exits 1) or some (a warning)."""
+    if not summary.n_errors:
+        return None
+    from benchmarks.store import ResultStore
+
+    with ResultStore.open(summary.out_dir, readonly=True) as store:
+        rows = store.rows("status = 'error' AND run_id = ?", (summary.run_id,))
+        first = next((r["error"] for r in rows if r.get("error")), "no message")
+    hint = f"first error: {first}; rerun failed rows with --retry-errors"
+    if summary.n_errors == summary.n_rows:
+        return f"scenesim: error: all {summary.n_rows} rows of this run failed ({hint})"
+    return f"scenesim: warning: {summary.n_errors} of {summary.n_rows} rows of this run failed ({hint})"
 
 
 @contextlib.contextmanager
@@ -186,6 +233,10 @@ def _list(args) -> int:
     print("\nEnhancers (name, version, source package):")
     for row in describe():
         print(f"  {row['name']:<14} v{row['version']:<6} {row['source']:<20} {row['summary']}")
+
+    print("\nMetrics (every results row):")
+    print("  SNR-I (replay), segmental SNR, SI-SDR, STOI/ESTOI (pystoi, MIT),")
+    print(f"  PESQ nb/wb (pesq package): {PESQ_NOTICE}")
 
     data_dir = args.data_dir or os.environ.get("SCENESIM_DATA") or None
     print(f"\nNoise types ({data_dir or 'built-in synthesized noises'}):")

@@ -8,39 +8,36 @@ the user typed and the way out, so ``main`` prints one ``scenesim: error:`` line
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import sqlite3
 import tempfile
 from pathlib import Path
 
 from scenesim.errors import DataError, ParameterError
+from scenesim.validate import PHYSICAL_RANGES, check_physical
 
 # The lowest rate the CLI accepts: the telephone band.  The built-in test signal is band
 # limited to 100 Hz - 4 kHz and the enhancers' filter banks and speech metrics are designed
 # for 8 or 16 kHz; below 8 kHz scipy filter design fails or the "speech" is aliased noise.
-MIN_FS_HZ = 8000
+MIN_FS_HZ, MAX_FS_HZ = PHYSICAL_RANGES["fs"][:2]
 
-# SNRs outside this range are almost certainly typos (an SNR of 200 dB is below the float
-# resolution of the mixture; -100 dB leaves no speech to enhance).
-SNR_RANGE_DB = (-50.0, 80.0)
+# SNRs outside this range are almost certainly typos (one table with the sweep files').
+SNR_RANGE_DB = PHYSICAL_RANGES["snr_db"][:2]
 
 
 def check_cli_fs(option: str, fs: int | None) -> int | None:
     """``fs`` if it is None or an integer >= :data:`MIN_FS_HZ`, else a ParameterError naming ``option``."""
-    if fs is not None and not fs >= MIN_FS_HZ:
+    if fs is not None and not MIN_FS_HZ <= fs <= MAX_FS_HZ:
         raise ParameterError(
-            option, fs, f"a sampling rate >= {MIN_FS_HZ} Hz (speech band and filters need it), e.g. 16000"
+            option, fs, f"a sampling rate in [{MIN_FS_HZ}, {MAX_FS_HZ}] Hz (speech band and filters need "
+            f">= {MIN_FS_HZ} Hz), e.g. 16000"
         )
     return fs
 
 
 def check_snr_db(option: str, snr_db: float) -> float:
     """``snr_db`` if it is finite and within :data:`SNR_RANGE_DB`, else a ParameterError naming ``option``."""
-    lo, hi = SNR_RANGE_DB
-    if not (math.isfinite(snr_db) and lo <= snr_db <= hi):
-        raise ParameterError(option, snr_db, f"an SNR in [{lo:g}, {hi:g}] dB")
-    return snr_db
+    return check_physical(option, snr_db, "snr_db")
 
 
 def _why(exc: OSError) -> str:
@@ -144,8 +141,32 @@ def check_store_readable(store_path) -> None:
         db.close()
 
 
+#: sqlite primary result codes (low byte) of a refused write or open: SQLITE_FULL (ENOSPC, EFBIG,
+#: EDQUOT), READONLY, IOERR, CANTOPEN, PERM.  The file on disk is intact after these; every other
+#: failure (CORRUPT, NOTADB, text that does not decode) means the store itself is damaged.
+_WRITE_REFUSED_CODES = {13: "SQLITE_FULL", 8: "SQLITE_READONLY", 10: "SQLITE_IOERR", 14: "SQLITE_CANTOPEN",
+                        3: "SQLITE_PERM"}
+
+
+def is_corruption(exc: sqlite3.DatabaseError) -> bool:
+    """False when sqlite reports a refused write or open (the store is intact), else True."""
+    code = getattr(exc, "sqlite_errorcode", None)
+    if code is not None:
+        return (code & 0xFF) not in _WRITE_REFUSED_CODES
+    text = str(exc).lower()  # Python < 3.11 has no error codes: sqlite's fixed messages
+    return not any(w in text for w in ("disk is full", "readonly", "disk i/o error", "unable to open"))
+
+
 def corrupt_store_error(store_path: Path, exc: sqlite3.DatabaseError) -> DataError:
-    """The one-line error for a results store sqlite cannot read, with how to move it aside."""
+    """The one-line error for a results store sqlite cannot read or write: how to move a damaged
+    store aside, or -- when a write was refused (disk full, file-size limit, quota, read-only) --
+    that the store is intact and how to resume."""
+    if not is_corruption(exc):
+        return DataError(
+            f"could not write the results store {store_path} ({exc}: the disk is full, a file-size limit "
+            f"or quota was hit, or the file system is read-only); the store is intact and keeps every "
+            f"row written so far. Free space or lift the limit, then rerun the same command to resume"
+        )
     return DataError(
         f"the results store {store_path} is corrupt or unreadable ({exc}); nothing was written. "
         f"Move it aside (mv {store_path} {store_path}.corrupt) and rerun to start a new store"

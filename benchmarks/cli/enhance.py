@@ -24,6 +24,7 @@ from enhancers.registry import get, make, with_geometry
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
 from scenesim.geometry import SPEED_OF_SOUND_MPS
+from scenesim.validate import check_physical
 
 
 def add_parser(subparsers):
@@ -71,6 +72,8 @@ def _parse_channels(text: str, n_available: int, path) -> list[int]:
         picks = [int(part) for part in text.split(",")]
     except ValueError:
         raise ParameterError("--channels", text, "comma-separated channel indices such as 0,1") from None
+    if len(set(picks)) != len(picks):  # one mic fed twice is no pair
+        raise ParameterError("--channels", text, "distinct channel indices such as 0,1")
     bad = [i for i in picks if not 0 <= i < n_available]
     if not picks or bad:
         raise ParameterError(
@@ -85,16 +88,38 @@ def _suggest_channels(n_in: int) -> str:
     return ",".join(str(i) for i in range(n_in))
 
 
-def run(args) -> int:
-    check_input_file("IN", args.input)
-    args.output = check_out_file("OUT", args.output)
+def _output_subtype(path: Path) -> str:
+    """The sample format OUT is written in: float where the container has it (WAV), else 24- or
+    16-bit PCM (FLAC); a container with neither (OGG, MP3: lossy) is refused before the work."""
     import soundfile as sf
 
-    if args.output.suffix[1:].upper() not in sf.available_formats():  # before the work, not after
-        raise ParameterError("OUT", str(args.output), "a file name ending in .wav, .flac or another soundfile format")
+    fmt = path.suffix[1:].upper()
+    if fmt in sf.available_formats():
+        for subtype in ("FLOAT", "PCM_24", "PCM_16"):
+            if sf.check_format(fmt, subtype):
+                return subtype
+    raise ParameterError("OUT", str(path), "a file name ending in .wav or .flac (lossless; .ogg/.mp3 are not written)")
+
+
+def _check_options(args) -> str:
+    """Every option checked before any work; returns OUT's sample format."""
+    check_input_file("IN", args.input)
+    args.output = check_out_file("OUT", args.output)
+    if args.output.resolve() == args.input.resolve():
+        raise ParameterError("OUT", str(args.output), "a file other than IN (it would overwrite the recording)")
+    subtype = _output_subtype(args.output)
     if args.trace is not None:
         check_out_file("--trace", args.trace)
     check_cli_fs("--fs", args.fs)
+    if args.c_mps is not None:
+        check_physical("--c-mps", args.c_mps, "c_mps")
+    if args.spacing_m is not None:
+        check_physical("--spacing-m", args.spacing_m, "spacing_m")
+    return subtype
+
+
+def run(args) -> int:
+    subtype = _check_options(args)
     cls = get(args.enhancer)  # unknown names raise with "Did you mean ...?"
     params = cls.Params.coerce_strings(_parse_params(args.param))
     enhancer = make(args.enhancer, **params)
@@ -107,7 +132,7 @@ def run(args) -> int:
                 enhancer = with_geometry(
                     enhancer,
                     spacing_m=p.spacing_m if args.spacing_m is None else args.spacing_m,
-                    c_mps=(p.c_mps if args.c_mps is None else args.c_mps) or SPEED_OF_SOUND_MPS,
+                    c_mps=(p.c_mps or SPEED_OF_SOUND_MPS) if args.c_mps is None else args.c_mps,
                 )
         else:
             notes.append(f"{enhancer.name} needs no geometry: --spacing-m/--c-mps ignored")
@@ -137,7 +162,11 @@ def run(args) -> int:
         )
 
     result = enhancer.process(x, fs)
-    write_audio(args.output, result.output, fs, subtype="FLOAT")
+    if subtype != "FLOAT":
+        peak = float(np.max(np.abs(result.output)))
+        scaled = f"; scaled from peak {peak:.3g} to 0.99" if peak > 1 else ""
+        notes.append(f"{args.output.suffix} holds no float samples: written as {subtype}{scaled}")
+    write_audio(args.output, result.output, fs, subtype=subtype, normalize=True)
     if args.trace is not None:
         np.savez(args.trace, **{k.replace(".", "__"): v for k, v in result.trace.items()})
 

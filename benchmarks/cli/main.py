@@ -26,6 +26,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import importlib  # noqa: E402
+import re  # noqa: E402
 import sys  # noqa: E402
 
 from benchmarks.cli.console import cli_warnings  # noqa: E402
@@ -52,9 +53,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _attach_negative_values(argv: list[str]) -> list[str]:
+    """``--opt -1,0`` -> ``--opt=-1,0``: argparse reads a value starting with '-' that is not a
+    plain number as an option ("expected one argument"); joined, the option's own check names it.
+
+    >>> _attach_negative_values(["enhance", "--channels", "-1,0", "x.wav"])
+    ['enhance', '--channels=-1,0', 'x.wav']
+    """
+    out: list[str] = []
+    for token in argv:
+        # Plain negative numbers argparse reads as values already (and nargs options need them apart).
+        plain = re.fullmatch(r"-\d+|-\d*\.\d+", token)
+        if out and out[-1].startswith("--") and "=" not in out[-1] and not plain and re.fullmatch(r"-\d[\d.,eE+-]*", token):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else list(argv)))
     try:
         with cli_warnings():
             return int(args.func(args) or 0)

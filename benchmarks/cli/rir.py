@@ -16,6 +16,7 @@ import numpy as np
 from benchmarks.cli.checks import check_cli_fs, options_named, prepare_out_dir
 from scenesim.errors import ParameterError
 from scenesim.files import write_json_atomic
+from scenesim.validate import check_physical
 
 # The default --rt60-method is only approximate; past this relative miss of the measured
 # T30 the user is told to use the calibrated method.
@@ -124,11 +125,31 @@ def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
         )
 
 
+def _check_physical_room(args) -> None:
+    """--rt60 and --dims within the shared physical ranges; a slow render is announced (as
+    ``bench run`` does) unless the hybrid tail or an explicit --length/--max-order bounds it."""
+    from benchmarks.progress import SLOW_RIR_WARN_S, estimated_rir_seconds
+
+    for value in args.dims:
+        check_physical("--dims", value, "room_dim_m")
+    if args.rt60 is None:
+        return
+    check_physical("--rt60", args.rt60, "rt60_s")
+    est = estimated_rir_seconds(args.rt60, math.prod(args.dims))
+    if args.method != "hybrid" and args.length is None and args.max_order is None and est > SLOW_RIR_WARN_S:
+        warnings.warn(
+            f"RT60 {args.rt60:g} s in this {math.prod(args.dims):.0f} m^3 room will take about {est / 60:.0f} min "
+            f"to render (image sources to the full decay); --method hybrid or --length shorten it",
+            stacklevel=2,
+        )
+
+
 def run(args) -> int:
     from scenesim.geometry import DEFAULT_SPACING_M, MicPair
     from scenesim.render import room_rir
 
     check_cli_fs("--fs", args.fs)
+    _check_physical_room(args)
     out = prepare_out_dir("--out", args.out)
     absorption = None
     if args.absorption is not None:

@@ -37,6 +37,7 @@ from scenesim.scene import (
     render_images,
 )
 from scenesim.sensors import SensorModel
+from scenesim.validate import check_outside_pair, check_physical, check_seed, check_snr_band
 
 DEFAULT_DURATION_S = 3.0
 
@@ -203,6 +204,11 @@ _OPTION_OF = {
     "rt60_s": "--rt60",
     "sensor_noise_db": "--sensor-noise-db",
     "seed": "--seed",
+    "wind_speed_mps": "--wind-speed-mps",
+    "snr_band_hz": "--snr-band-hz",
+    "snr_db": "--snr-db",
+    "snr_mode": "--snr-mode",
+    "fs": "--fs",
 }
 
 
@@ -284,13 +290,33 @@ def _build_scene(args) -> Scene:
     )
 
 
-def run(args) -> int:
+#: Options checked against scenesim.validate.PHYSICAL_RANGES (the table sweep files use too).
+_PHYSICAL_OPTIONS = (("--speech-az", "speech_az", "azimuth_deg"), ("--noise-az", "noise_az", "azimuth_deg"),
+                     ("--distance-m", "distance_m", "distance_m"), ("--spacing-m", "spacing_m", "spacing_m"),
+                     ("--duration-s", "duration_s", "duration_s"), ("--rt60", "rt60", "rt60_s"))
+
+
+def check_physical_options(args) -> None:
+    """Every typed value within its physical range, before any work (errors name the option)."""
     check_cli_fs("--fs", args.fs)
     check_snr_db("--snr-db", args.snr_db)
+    check_seed("--seed", args.seed)
+    for option, attr, quantity in _PHYSICAL_OPTIONS:
+        if getattr(args, attr) is not None:
+            check_physical(option, getattr(args, attr), quantity)
+    for value in args.room or ():
+        check_physical("--room", value, "room_dim_m")
+    for value in args.mic_highpass_hz or ():
+        check_physical("--mic-highpass-hz", value, "highpass_hz")
+    check_outside_pair("--distance-m", args.distance_m, args.spacing_m)
+    if args.snr_band_hz is not None:
+        check_snr_band("--snr-band-hz", tuple(args.snr_band_hz), args.fs)
+
+
+def run(args) -> int:
+    check_physical_options(args)
     scene = build_scene(args)
     fs = scene.fs
-    if args.duration_s is not None and not args.duration_s > 0:
-        raise ParameterError("--duration-s", args.duration_s, "a duration > 0 in seconds")
     for option, path in (("--speech", args.speech), ("--noise", args.noise)):
         if path is not None:
             check_input_file(option, path)
