@@ -35,7 +35,8 @@ def add_parser(subparsers) -> None:
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://10.0.0.5:8786 (with --executor dask)")
     run.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="speech/noise directory (default: $SCENESIM_DATA, else built-in)")
-    run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only the first N conditions")
+    run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only N conditions, spread over every swept axis (noise, SNR, seed, ...)")
+    run.add_argument("--seeds", type=_positive_int, default=None, metavar="N", help="replace the sweep's seed list by 0..N-1 (more seeds: tighter intervals)")
     run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
     run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
@@ -88,18 +89,17 @@ def _nonneg_int(text: str) -> int:
 
 
 def _run(args) -> int:
-    from benchmarks.runner import run_sweep
-    from benchmarks.sweep import load_sweep
+    from benchmarks.runner import _select_conditions, run_sweep
 
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
-    sweep = load_sweep(args.sweep)
+    sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds)
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 
         open_data(args.data_dir, require_speech=True)
     out = prepare_out_dir("--out", args.out)
-    slow = slow_rir_warning(sweep.conditions()[: args.limit])
+    slow = slow_rir_warning(conditions)
     if slow:
         print(f"scenesim: warning: {slow}", file=sys.stderr)
     with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
@@ -113,6 +113,7 @@ def _run(args) -> int:
             data_dir=args.data_dir,
             limit=args.limit,
             seed=args.seed,
+            seeds=args.seeds,
             retry_errors=args.retry_errors,
             report=not args.no_report,
             new_version=args.new_version,
