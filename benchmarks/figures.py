@@ -51,8 +51,9 @@ def _enhancers(rows) -> list[str]:
     return sorted(names, key=lambda n: (T.system_rank(n), str(n)))
 
 
-#: Okabe & Ito (2008) colour-blind-safe palette; with more systems the markers tell them apart.
-PALETTE = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#000000", "#F0E442")
+#: Okabe & Ito (2008) colour-blind-safe palette (its yellow, unreadable on white, swapped for
+#: Tol's wine); with more systems the markers tell them apart.
+PALETTE = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#000000", "#882255")
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
 #: Resolution of every saved figure (a test lowers it to render quickly).
 DPI = 110

@@ -259,7 +259,7 @@ def markdown_table(header: Sequence[str], body: Sequence[Sequence[str]]) -> str:
 MIN_T_SEEDS = 5
 
 #: How a table cell's spread reads (for the sections' explanations).
-SMALL_N_TEXT = (f"n = 1: the value; n < {MIN_T_SEEDS}: mean (seeds' min–max); otherwise mean ± half-width of the "
+SMALL_N_TEXT = (f"n = 1: the value; n < {MIN_T_SEEDS}: mean (seeds' min … max); otherwise mean ± half-width of the "
                 "95 % Student-t interval over seeds, or mean [lo, hi]* when it is clipped to the metric's range.")
 
 #: Condition columns that a sweep may draw per seed (from ``*_range_*`` parameters) rather than sweep.
@@ -319,12 +319,12 @@ def digits_for(field: str) -> int:
 def stat_cell(rec: Mapping[str, Any], field: str, digits: int | None = None) -> str:
     """One table cell for ``field`` of an :func:`aggregate` record, honest about n.
 
-    n = 1: the value; 2 <= n < :data:`MIN_T_SEEDS`: ``mean (min–max)`` over the seeds;
+    n = 1: the value; 2 <= n < :data:`MIN_T_SEEDS`: ``mean (min … max)`` over the seeds;
     otherwise ``mean ± half-width`` of the 95 % t-interval, or ``mean [lo, hi]*`` when the
     interval leaves the metric's range and is clipped to it.
 
     >>> stat_cell({"x_db": 2.0, "x_db_n": 3, "x_db_min": 1.0, "x_db_max": 3.5}, "x_db")
-    '2.0 (1.0–3.5)'
+    '2.0 (1.0 … 3.5)'
     >>> stat_cell({"stoi_out": 0.9, "stoi_out_n": 6, "stoi_out_ci95": 0.2}, "stoi_out")
     '0.90 [0.70, 1.00]*'
     """
@@ -333,17 +333,44 @@ def stat_cell(rec: Mapping[str, Any], field: str, digits: int | None = None) -> 
     if mean is None:
         return "–"
     n = rec.get(field + "_n") or 1
+    lo, hi = rec_interval(rec, field)
     if n < 2:
         return fmt(mean, digits)
     if n < MIN_T_SEEDS:
-        return f"{fmt(mean, digits)} ({fmt(rec.get(field + '_min'), digits)}–{fmt(rec.get(field + '_max'), digits)})"
-    half = num(rec.get(field + "_ci95"))
-    if half is None:
-        return fmt(mean, digits)
-    lo, hi = clip_interval(field, mean - half, mean + half)
-    if (lo, hi) == (mean - half, mean + half):
+        return f"{fmt(mean, digits)} ({fmt(lo, digits)} … {fmt(hi, digits)})"
+    half = num(rec.get(field + "_ci95")) or 0.0
+    if math.isclose(lo, mean - half) and math.isclose(hi, mean + half):
         return fmt(mean, digits, half)
     return f"{fmt(mean, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]*"
+
+
+def rec_interval(rec: Mapping[str, Any], field: str) -> tuple[float, float] | None:
+    """``(lo, hi)`` an :func:`aggregate` record's cell shows (:func:`stat_cell`): the seeds' min–max
+    below :data:`MIN_T_SEEDS`, else the clipped t-interval; None without a value.
+
+    >>> rec_interval({"stoi_out": 0.9, "stoi_out_n": 6, "stoi_out_ci95": 0.2}, "stoi_out")
+    (0.7, 1.0)
+    """
+    mean = num(rec.get(field))
+    if mean is None:
+        return None
+    n = rec.get(field + "_n") or 1
+    if n < 2:
+        return mean, mean
+    if n < MIN_T_SEEDS:
+        return rec[field + "_min"], rec[field + "_max"]
+    half = num(rec.get(field + "_ci95")) or 0.0
+    return clip_interval(field, mean - half, mean + half)
+
+
+def error_bars(recs: Sequence[Mapping[str, Any]], field: str) -> list[list[float]]:
+    """Matplotlib's asymmetric ``yerr`` for ``recs`` (see :func:`rec_interval`); 0 where missing."""
+    lo, hi = [], []
+    for r in recs:
+        iv, m = rec_interval(r, field), num(r.get(field))
+        lo.append(0.0 if iv is None else max(0.0, m - iv[0]))
+        hi.append(0.0 if iv is None else max(0.0, iv[1] - m))
+    return [lo, hi]
 
 
 def clip_interval(field: str, lo: float, hi: float) -> tuple[float, float]:

@@ -112,7 +112,7 @@ def diff_cell(rec: Mapping[str, Any]) -> str:
     d = digits_for(rec["metric"])
 
     def s(x):
-        return "–" if x is None else f"{x:+.{d}f}"
+        return "–" if x is None else f"{0.0 if round(x, d) == 0 else x:+.{d}f}"  # no "-0.0"
 
     mean = s(rec["mean_diff"])
     if rec["n"] < 2:
@@ -158,13 +158,13 @@ def rank_tiers(
 
 
 def ranking_cell(rec: Mapping[str, Any], field: str) -> str:
-    """``mean (lo–hi)`` of a :func:`rank_tiers` record."""
+    """``mean (lo … hi)`` of a :func:`rank_tiers` record."""
     d = digits_for(field)
     if rec.get(field) is None:
         return "–"
     if rec["n"] < 2:
         return fmt(rec[field], d)
-    return f"{fmt(rec[field], d)} ({fmt(rec[field + '_lo'], d)}–{fmt(rec[field + '_hi'], d)})"
+    return f"{fmt(rec[field], d)} ({fmt(rec[field + '_lo'], d)} … {fmt(rec[field + '_hi'], d)})"
 
 
 def system_mark(rec: Mapping[str, Any]) -> str:
