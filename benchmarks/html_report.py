@@ -170,6 +170,8 @@ def listening_html(listening: Listening) -> str:
     parts += [f'<p class="note">{inline(n)}</p>' for n in listening.notes]
     for cond in listening.conditions:
         parts.append(f"<h3>{inline(cond.label)} <small><code>{html.escape(cond.condition_id)}</code></small></h3>")
+        if cond.hint:
+            parts.append(f"<p>{inline(cond.hint)}</p>")
         parts += [f'<p class="note">{inline(n)}</p>' for n in cond.notes]
         if not cond.clips:
             continue

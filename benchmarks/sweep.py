@@ -483,13 +483,14 @@ class Sweep:
         return len(self.conditions())
 
 
-def stratified(conditions: Sequence[Condition], n: int, axes: Sequence[str]) -> list[Condition]:
+def stratified(conditions: Sequence[Any], n: int, axes: Sequence[str], *, value: Callable[[Any, str], Any] | None = None) -> list[Any]:
     """``n`` of ``conditions`` spread over every axis in ``axes`` (``bench run --limit N``).
 
     Greedy balancing: each pick is the condition whose axis values (and pairs of values)
     have been picked least so far, ties to the earliest in the sweep's order, so the first
     pick is the first condition and every axis value is taken before any is taken twice.
-    Returned in the sweep's order.
+    Returned in the sweep's order.  ``value(item, axis)`` reads an axis value (default:
+    the attribute of that name), so any items can be spread, e.g. results rows.
 
     >>> sw = load_sweep("thesis")
     >>> sorted({c.noise for c in stratified(sw.conditions(), 3, sw.swept_axes)})
@@ -498,7 +499,8 @@ def stratified(conditions: Sequence[Condition], n: int, axes: Sequence[str]) -> 
     conditions = list(conditions)
     if n >= len(conditions):
         return conditions
-    keys = [[(a, repr(getattr(c, a, None))) for a in axes] for c in conditions]
+    value = value or (lambda c, a: getattr(c, a, None))
+    keys = [[(a, repr(value(c, a))) for a in axes] for c in conditions]
     counts: dict[Any, int] = {}
     chosen: list[int] = []
     left = set(range(len(conditions)))
