@@ -106,7 +106,7 @@ def markdown_to_html(text: str) -> str:
     """HTML for the Markdown subset ``summary.md`` uses (see the module docstring).
 
     >>> markdown_to_html("# A <b>\\n\\n| x |\\n|---|\\n| `1` |")
-    '<h1>A &lt;b&gt;</h1>\\n<table>\\n<thead><tr><th>x</th></tr></thead>\\n<tbody>\\n<tr><td><code>1</code></td></tr>\\n</tbody>\\n</table>'
+    '<h1 id="a-b">A &lt;b&gt;</h1>\\n<table>\\n<thead><tr><th>x</th></tr></thead>\\n<tbody>\\n<tr><td><code>1</code></td></tr>\\n</tbody>\\n</table>'
     """
     blocks: list[str] = []
     lines = text.splitlines()
