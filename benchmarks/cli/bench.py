@@ -55,12 +55,13 @@ def add_parser(subparsers) -> None:
 
     cmp_ = sub.add_parser(
         "compare",
-        help="paired differences (B - A) between two stores of the same sweep, with 95%% CIs over seeds",
+        help="differences (B - A) between two stores of one sweep: its changed parameters, then 95%% CIs over seeds (paired; unpaired when only the seeds differ)",
     )
     cmp_.add_argument("dir_a", type=Path, metavar="DIR_A", help="baseline store directory")
     cmp_.add_argument("dir_b", type=Path, metavar="DIR_B", help="store compared with it")
     cmp_.add_argument("--out", type=Path, default=None, metavar="DIR", help="where compare.csv/.md go (default: DIR_B/compare)")
     cmp_.add_argument("--metrics", nargs="+", default=None, metavar="COLUMN", help="result columns to compare (default: snr_i_db pesq_nb_out pesq_wb_out stoi_out estoi_out si_sdr_out_db)")
+    cmp_.add_argument("--all", action="store_true", dest="show_all", help="also print the lines where no metric changed")
     cmp_.set_defaults(func=_compare)
 
     lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
@@ -164,7 +165,7 @@ def _report(args) -> int:
 def _compare(args) -> int:
     from benchmarks.compare import DEFAULT_METRICS, compare_stores
 
-    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS))
+    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS), show_all=args.show_all)
     print(text)
     for f in files:
         print(f)
