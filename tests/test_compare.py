@@ -178,3 +178,14 @@ def test_stores_that_differ_only_in_seeds_are_compared_unpaired(stores, tmp_path
         assert not rec["paired"] and rec["n"] == 3
         assert (rec["ci_low"], rec["ci_high"]) == (pytest.approx(ci.low, abs=1e-12), pytest.approx(ci.high, abs=1e-12))
         assert rec["mean_diff"] == pytest.approx(np.mean(b) - np.mean(a), abs=1e-12)
+
+
+def test_load_results_accepts_the_sweep_axis_names(stores):
+    pytest.importorskip("pandas")
+    base, _, dir_a, _ = stores
+    df = benchmarks.load_results(dir_a, snr_db=[0.0], enhancers="eb", seeds=(0, 1))
+    want = {(n, s, seed, e) for (n, s, seed, e) in base if s == 0.0 and e == "eb" and seed in (0, 1)}
+    assert len(df) == len(want) == 4 and set(df["snr_in_db"]) == {0.0} and set(df["enhancer"]) == {"eb"}
+    assert len(benchmarks.load_results(dir_a, snr_in_db=10.0)) == len([k for k in base if k[1] == 10.0])
+    with pytest.raises(ScenesimError, match="no column 'snr'"):
+        benchmarks.load_results(dir_a, snr=0)
