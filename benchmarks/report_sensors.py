@@ -117,11 +117,12 @@ def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
                 ax.plot(*zip(*tx), "k_", markersize=14, markeredgewidth=2,
                         label="thesis (ideal mics), printed" if i == names.index(next(
                             n for n in names if T.thesis_system(n))) else None)  # fmt: skip
-        ax.set_xticks(range(len(noises)), noises)
+        fields = {r["noise"]: r.get("noise_field") for r in summary}
+        ax.set_xticks(range(len(noises)), [f"{n}\n({fields[n]})" if fields.get(n) else n for n in noises])
         ax.axhline(0.0, color="grey", lw=0.8)
-        ax.set(ylabel=label)
+        ax.set(xlabel="noise (field)", ylabel=label)
         ax.grid(True, axis="y", alpha=0.3)
-    axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].legend(fontsize=7, loc="best", ncol=2)
     n = max((r["n"] for r in summary), default=0)
     fig.suptitle(f"{len(names)} systems on realistic phones (sensors drawn per seed), per noise: mean over input SNRs; "
                  f"{interval_words(n)}; black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
