@@ -237,17 +237,19 @@ def _thesis_section(comparison: Sequence[dict]) -> list[str]:
     for rec in comparison:
         if T.base_name(rec["enhancer"]) != "passthrough":
             groups.setdefault((rec["enhancer"], rec["noise"]), []).append(rec)
+    block: list[str] = []
     for (name, noise), recs in groups.items():
         tables = sorted({r["thesis_table"] for r in recs if r.get("thesis_table")})
         source = f" — thesis table {', '.join(tables)}" if tables else ""
-        lines += [f"### {_label(name)}, {noise}{source}", ""]
+        block += [f"### {_label(name)}, {noise}{source}", ""]
         body = [[fmt(r["snr_in_db"], 0), _cell(r, "snr_in_db_measured"), _cell(r, "snr_out_db"),
                  fmt(r["thesis_snr_out_db"], 1), _cell(r, "snr_i_db"), fmt(r["thesis_snr_i_db"], 1),
                  _cell(r, "pesq_nb_raw_in"), fmt(r["thesis_pesq_in"], 2), _cell(r, "pesq_nb_raw_out"),
                  fmt(r["thesis_pesq_out"], 2), _cell(r, "pesq_nb_raw_i"), fmt(r["thesis_pesq_i"], 2),
                  _cell(r, "pesq_nb_out"), _cell(r, "pesq_wb_out"), str(r["n"])] for r in recs]  # fmt: skip
-        lines += table_lines(header, body, summary=f"{name}, {noise}")
-    return lines
+        block += table_lines(header, body, summary=f"{name}, {noise}")
+    n_rows = sum(len(recs) for recs in groups.values())
+    return lines + folded(f"Per input SNR, beside the thesis' tables ({len(groups)} tables)", block, n_rows)
 
 
 def _averages_section(avg: Sequence[dict]) -> list[str]:
@@ -459,12 +461,14 @@ def _sources_part(ctx):
     return _sources_section(ctx.all_rows), []
 
 
-#: The sections after the overview figure, in page order: the decisions first, then details.
-#: Other modules add a section with one line, e.g. ``SECTIONS.insert(2, my_section)``; a
-#: section takes a :class:`ReportContext` and returns ``(markdown lines, written paths)``,
-#: its lines starting with a ``## `` heading (the contents list links every one).
+#: The page's sections in order: :data:`HEADLINE_SECTIONS` (the decisions) right after the
+#: overview figure, then the figures, then :data:`SECTIONS` (details).  Other modules add a
+#: section with one line, e.g. ``SECTIONS.insert(2, my_section)``; a section takes a
+#: :class:`ReportContext` and returns ``(markdown lines, written paths)``, its lines starting
+#: with a ``## `` heading (the contents list links every one).
+HEADLINE_SECTIONS: list[Section] = [_verdicts_part]
 SECTIONS: list[Section] = [
-    _verdicts_part, _phone_part, _mismatch_part, _reverb_part, lambda c: _thesis_part(c.ok, c.fields, c.report_dir),
+    _phone_part, _mismatch_part, _reverb_part, lambda c: _thesis_part(c.ok, c.fields, c.report_dir),
     lambda c: _sweeps_part(c.generic, c.fields, c.report_dir), _flags_part,
     lambda c: _conditions_part(c.ok, c.fields, c.report_dir), lambda c: _failures_part(c.all_rows, c.report_dir),
     _sources_part,
@@ -483,8 +487,9 @@ def write_report(
 ) -> list[Path]:
     """Write the report for ``rows`` under ``out_dir/report/``; returns the written paths.
 
-    The page opens with a contents list and the overview figure, then every
-    :data:`SECTIONS` entry (paired verdicts and ranking first), the figures, and the files.
+    The page opens with a contents list and the overview figure, then the
+    :data:`HEADLINE_SECTIONS` (paired verdicts and ranking), the figures, the
+    :data:`SECTIONS` (details) and the files.
 
     Parameters
     ----------
@@ -508,18 +513,14 @@ def write_report(
     ctx = ReportContext(all_rows, ok, fields, _generic_rows(ok), report_dir)
 
     overview = figures.overview_figure(ok, report_dir)
-    body: list[str] = []
-    written: list[Path] = []
-    for section in SECTIONS:
-        lines, paths = section(ctx)
-        body += lines
-        written += paths
+    parts = [[section(ctx) for section in group] for group in (HEADLINE_SECTIONS, SECTIONS)]
+    written = [p for group in parts for _, paths in group for p in paths]
     fig_paths = [p for p in written if p.suffix == ".png"]
     fig_paths += figures.all_figures(ctx.generic, report_dir) if ctx.generic else []
     paths = [p for p in written if p.suffix != ".png"]
-    fig_lines = _figure_lines(fig_paths)
+    headline, details = ([ln for lines, _ in group for ln in lines] for group in parts)
     top = _overview_lines(overview)
-    rest = [*body, *fig_lines, *_files_lines(paths)]
+    rest = [*headline, *_figure_lines(fig_paths), *details, *_files_lines(paths)]
     lines = [*_meta_lines(meta, all_rows), *contents_lines([*top, *rest]), *top, *rest]
     summary = report_dir / "summary.md"
     summary.write_text("\n".join(lines) + "\n", encoding="utf-8")

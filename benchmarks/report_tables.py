@@ -334,7 +334,7 @@ def stat_cell(rec: Mapping[str, Any], field: str, digits: int | None = None) -> 
         return "–"
     n = rec.get(field + "_n") or 1
     lo, hi = rec_interval(rec, field)
-    if n < 2:
+    if n < 2 or fmt(lo, digits) == fmt(hi, digits):  # one seed, or seeds that agree to the digits shown
         return fmt(mean, digits)
     if n < MIN_T_SEEDS:
         return f"{fmt(mean, digits)} ({fmt(lo, digits)} … {fmt(hi, digits)})"

@@ -124,7 +124,7 @@ def test_summary_puts_thesis_numbers_next_to_ours(report):
     ours = 13.8492 + OFFSET_DB  # seeds -0.25 / +0.25 average out
     # n = 2 < 5: the seeds' min–max, never the t-interval (t_{.975,1} * std / sqrt(2) = 3.18 dB);
     # dB to one decimal, PESQ to two.
-    assert f"{ours:.1f} ({ours - 0.25:.1f}–{ours + 0.25:.1f})" in row0
+    assert f"{ours:.1f} ({ours - 0.25:.1f} … {ours + 0.25:.1f})" in row0
     assert "±" not in row0 and f"{ci95_halfwidth(np.std([-0.25, 0.25], ddof=1), 2):.2f}" == "3.18"
     assert "| 13.8 |" in row0 and "| 1.64 |" in row0 and "| 2.05 |" in row0
     assert len(lines) >= 6  # one 0 dB line per system x noise
