@@ -107,3 +107,18 @@ def test_every_figure_of_a_preset_is_titled_from_its_rows(preset, drawn, tmp_pat
     # polar plots only over swept azimuths
     if "snr_i_vs_noise_azimuth.png" in drawn:
         assert not all("noise_az_deg" in drawn_keys(r) for r in rows)
+    _check_in_browser(tmp_path / "report")
+
+
+def _check_in_browser(report):
+    """The preset's page in headless Chromium (when installed): no console errors, every
+    contents link resolves, every figure loads."""
+    from headless_browser import find_chromium, inspect_page
+
+    binary = find_chromium()
+    if binary is None:
+        return
+    seen = inspect_page((report / "index.html").as_uri(), binary=binary)
+    assert seen.console_errors == []
+    assert seen.links and all(link["resolves"] for link in seen.links), seen.links
+    assert seen.images and all(i["complete"] and i["naturalWidth"] > 0 for i in seen.images), seen.images

@@ -121,3 +121,19 @@ def test_limit_is_stratified_over_every_swept_axis(preset):
     for axis in sweep.swept_axes:
         counts = {v: sum(getattr(c, axis) == v for c in picked) for v in sweep.axes[axis]}
         assert max(counts.values()) - min(counts.values()) <= 1, (axis, counts)  # balanced marginals
+
+
+def test_bench_run_seeds_and_limit_from_the_command_line(tmp_path):
+    """``--seeds 3 --limit 3`` on smoke (2 noises x 2 SNRs): three conditions, three seeds, both
+    noises and both SNRs -- the seed list is replaced without editing TOML."""
+    from benchmarks.cli.main import main
+    from benchmarks.store import ResultStore
+
+    out = tmp_path / "s"
+    argv = ["bench", "run", "smoke", "--seeds", "3", "--limit", "3", "--workers", "1", "--no-report", "--out", str(out)]
+    assert main(argv) == 0
+    with ResultStore.open(out, readonly=True) as store:
+        rows = store.rows()
+    assert len({r["condition_id"] for r in rows}) == 3
+    assert sorted({r["seed"] for r in rows}) == [0, 1, 2]
+    assert {r["noise"] for r in rows} == {"babble", "wind"} and {r["snr_in_db"] for r in rows} == {0.0, 10.0}
