@@ -437,7 +437,10 @@ Section = Callable[[ReportContext], tuple[list[str], list[Path]]]
 
 
 def _verdicts_part(ctx: ReportContext) -> tuple[list[str], list[Path]]:
+    """Paired verdicts and ranking; a row is *flagged* when the honesty section flags it or its
+    Hagerman speech leak exceeds its noise term (``hagerman_leak_db > 0``)."""
     flagged = {id(r) for rows in report_sensors.honesty_flags(ctx.ok).values() for r in rows}
+    flagged |= {id(r) for r in ctx.ok if (num(r.get("hagerman_leak_db")) or -math.inf) > 0.0}
     return verdicts_section(ctx.ok, ctx.report_dir, flagged=lambda r: id(r) in flagged)
 
 
