@@ -30,6 +30,7 @@ from benchmarks.report_tables import (  # noqa: E402
     distinct,
     drawn_keys,
     group_drawn,
+    interval_clipped,
     modal,
     num,
     seed_interval,
@@ -91,23 +92,39 @@ def save_figure(fig, path: Path) -> Path:
     return path
 
 
-def _seed_points(rows: Sequence[dict], x_key: str, field: str) -> list[tuple[float, float, float, float]]:
-    """``(x, mean, lo, hi)`` per value of ``x_key``: per-seed means, then
-    :func:`~benchmarks.report_tables.seed_interval` (clipped to the metric's range)."""
+def _seed_points(rows: Sequence[dict], x_key: str, field: str) -> list[tuple[float, float, float, float, bool]]:
+    """``(x, mean, lo, hi, clipped)`` per value of ``x_key``: per-seed means, then
+    :func:`~benchmarks.report_tables.seed_interval` (clipped to the metric's range; ``clipped``
+    says so)."""
     out = []
     for x in distinct(rows, x_key):
-        m, lo, hi = seed_interval(seed_means([r for r in rows if r.get(x_key) == x], field), field)
+        vals = seed_means([r for r in rows if r.get(x_key) == x], field)
+        m, lo, hi = seed_interval(vals, field)
         if m is not None and num(x) is not None:
-            out.append((float(x), m, lo, hi))
+            out.append((float(x), m, lo, hi, interval_clipped(vals, field)))
     return out
 
 
 def _errorbar(ax, pts, **kw):
-    """Draw ``(x, mean, lo, hi)`` points with asymmetric error bars (nothing without points)."""
+    """Draw ``(x, mean, lo, hi, clipped)`` points with asymmetric error bars (nothing without
+    points); a clipped bar gets a black × at both ends and the panel a note saying so."""
     if not pts:
         return
-    x, m, lo, hi = zip(*pts)
+    x, m, lo, hi, clipped = zip(*pts)
     ax.errorbar(x, m, yerr=[[a - b for a, b in zip(m, lo)], [b - a for a, b in zip(m, hi)]], capsize=2, **kw)
+    _mark_clipped(ax, [(xi, a, b) for xi, a, b, c in zip(x, lo, hi, clipped) if c])
+
+
+def _mark_clipped(ax, ends, *, vertical: bool = True) -> None:
+    """Mark clipped intervals ``(x, lo, hi)`` (or ``(y, lo, hi)`` horizontally) and say so once per panel."""
+    if not ends:
+        return
+    for pos, lo, hi in ends:
+        xs, ys = ([pos, pos], [lo, hi]) if vertical else ([lo, hi], [pos, pos])
+        ax.plot(xs, ys, "kx", ms=6, zorder=5)
+    if not getattr(ax, "_clip_noted", False):
+        ax.text(0.01, 0.01, "× interval clipped to the metric's range", transform=ax.transAxes, fontsize=6, va="bottom")
+        ax._clip_noted = True
 
 
 def _n_seeds(rows: Sequence[dict]) -> int:
@@ -303,12 +320,14 @@ def overview_figure(ok: Sequence[dict], out_dir: Path) -> list[Path]:
                 if x_is_key:
                     _errorbar(axes[i, j], _seed_points(mine, x_f, y_f), **kw)
                     continue
-                xm, xlo, xhi = seed_interval(seed_means(mine, x_f), x_f)
-                ym, ylo, yhi = seed_interval(seed_means(mine, y_f), y_f)
+                xv, yv = seed_means(mine, x_f), seed_means(mine, y_f)
+                (xm, xlo, xhi), (ym, ylo, yhi) = seed_interval(xv, x_f), seed_interval(yv, y_f)
                 if xm is None or ym is None:
                     continue
                 axes[i, j].errorbar([xm], [ym], xerr=[[xm - xlo], [xhi - xm]], yerr=[[ym - ylo], [yhi - ym]],
                                     capsize=2, ls="none", **kw)  # fmt: skip
+                _mark_clipped(axes[i, j], [(xm, ylo, yhi)] if interval_clipped(yv, y_f) else [])
+                _mark_clipped(axes[i, j], [(ym, xlo, xhi)] if interval_clipped(xv, x_f) else [], vertical=False)
         axes[0, j].set_title(str(noise), fontsize=10)
         for i, (_, y_label) in enumerate(panels):
             axes[i, j].set(xlabel=x_label, ylabel=y_label)

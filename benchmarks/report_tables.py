@@ -425,3 +425,16 @@ def seed_interval(values: Sequence[float], field: str) -> tuple[float | None, fl
     half = ci95_halfwidth(sd, n) or 0.0
     lo, hi = clip_interval(field, m - half, m + half)
     return m, lo, hi
+
+
+def interval_clipped(values: Sequence[float], field: str) -> bool:
+    """True when :func:`seed_interval` of ``values`` had to clip the t-interval to the range.
+
+    >>> interval_clipped([0.99, 0.2, 0.99, 0.99, 0.99], "stoi_out"), interval_clipped([1.0, 3.0], "stoi_out")
+    (True, False)
+    """
+    m, sd, n = mean_std(values)
+    if m is None or n < MIN_T_SEEDS:
+        return False
+    half = ci95_halfwidth(sd, n) or 0.0
+    return clip_interval(field, m - half, m + half) != (m - half, m + half)

@@ -64,6 +64,7 @@ def drawn(monkeypatch):
             "labels": [t.get_text() for lg in legends for t in lg.get_texts()],
             "inside": all(fig.bbox.contains(*lg.get_window_extent(renderer).p0)
                           and fig.bbox.contains(*lg.get_window_extent(renderer).p1) for lg in legends),
+            "texts": [t.get_text() for ax in fig.axes for t in ax.texts],
             "xlabels": [ax.get_xlabel() for ax in fig.axes if ax.get_visible() and ax.name != "polar"],
             "ylabels": [ax.get_ylabel() for ax in fig.axes if ax.get_visible() and ax.name != "polar"],
         }
@@ -122,3 +123,16 @@ def _check_in_browser(report):
     assert seen.console_errors == []
     assert seen.links and all(link["resolves"] for link in seen.links), seen.links
     assert seen.images and all(i["complete"] and i["naturalWidth"] > 0 for i in seen.images), seen.images
+
+
+@pytest.mark.parametrize(("outlier", "marked"), [(0.2, True), (0.97, False)])
+def test_clipped_intervals_are_marked(outlier, marked, drawn, tmp_path):
+    # Oracle: STOI of five seeds 0.99, 0.99, 0.99, 0.99, x; with x = 0.2 the t-interval
+    # (0.83 +- 0.44) leaves [0, 1] and is clipped, with x = 0.97 it stays inside.
+    from benchmarks import figures
+
+    rows = [dict(enhancer="eb", noise="babble", seed=s, snr_in_db=0.0, snr_i_db=1.0 + s, pesq_nb_raw_out=2.0,
+                 stoi_out=outlier if s == 4 else 0.99) for s in range(5)]  # fmt: skip
+    figures.overview_figure(rows, tmp_path)
+    note = "× interval clipped to the metric's range"
+    assert (note in drawn["overview.png"]["texts"]) == marked
