@@ -176,7 +176,7 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
         ax.set(xlabel=xlabel, ylabel=label)
         ax.axhline(0.0, color="grey", lw=0.8)
         ax.grid(True, alpha=0.3)
-    axes[-1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].legend(fontsize=6, loc="best", ncol=2 if len(names) * len(groups) > 6 else 1)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)
@@ -187,13 +187,14 @@ def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     recs = [r for r in acoustics if num(r.get("rt60_s")) and r.get("t30_s") is not None]
     xs = [r["rt60_s"] for r in recs]
     for f, marker, label in (("t30_s", "o", "T30 (achieved)"), ("edt_s", "s", "EDT (achieved)")):
-        ax.errorbar(xs, [r.get(f) for r in recs], yerr=[r.get(f + "_ci95") or 0.0 for r in recs], fmt=marker, capsize=2, label=label)
+        ax.errorbar(xs, [r.get(f) for r in recs], yerr=error_bars(recs, f), fmt=marker, capsize=2, label=label)
     hi = max([*xs, *(r.get("t30_s") or 0 for r in recs), *(r.get("edt_s") or 0 for r in recs), 0.1]) * 1.1
     ax.plot([0, hi], [0, hi], "k--", lw=0.8, label="target")
     ax.set(xlabel="target RT60 (s)", ylabel="achieved at the reference mic (s)", xlim=(0, hi), ylim=(0, hi))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
-    ax.set_title("RT60: target vs achieved (mean, 95 % CI over seeds)", fontsize=8)
+    n = max((r.get("n") or 0 for r in recs), default=0)
+    ax.set_title(f"RT60: target vs achieved (mean; {interval_words(n)})", fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
 

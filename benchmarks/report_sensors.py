@@ -234,7 +234,8 @@ def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -
             ax.set(title=f"{name}, {geo}", xlabel="gain mismatch rear re front (dB)", ylabel=ylabel)
             ax.grid(True, alpha=0.3)
     axes[0, -1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.suptitle(f"{ylabel} vs mic mismatch (solid: noiseless mics; dashed: with self-noise)", fontsize=10)
+    styles = "; ".join(f"{word}: self-noise {sn}" for word, sn in zip(("solid", "dashed", "dotted"), noises))
+    fig.suptitle(f"{ylabel} vs mic mismatch, {len(names)} systems x {len(geos)} noise geometries ({styles})", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)
 
