@@ -162,9 +162,10 @@ def ranking_cell(rec: Mapping[str, Any], field: str) -> str:
     d = digits_for(field)
     if rec.get(field) is None:
         return "–"
-    if rec["n"] < 2:
+    lo, hi = fmt(rec[field + "_lo"], d), fmt(rec[field + "_hi"], d)
+    if rec["n"] < 2 or lo == hi:
         return fmt(rec[field], d)
-    return f"{fmt(rec[field], d)} ({fmt(rec[field + '_lo'], d)} … {fmt(rec[field + '_hi'], d)})"
+    return f"{fmt(rec[field], d)} ({lo} … {hi})"
 
 
 def system_mark(rec: Mapping[str, Any]) -> str:
