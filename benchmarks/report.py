@@ -1,23 +1,28 @@
 """``scenesim bench report``: Markdown + CSV tables and PNG figures from the results rows.
 
 :func:`write_report` takes the rows of the store's ``results`` table as dicts (contract
-columns plus extras such as ``trace_json``) and writes under ``OUT_DIR/report/``:
+columns plus extras such as ``trace_json``) and writes under ``OUT_DIR/report/``
+``summary.md`` and ``index.html`` in this order:
 
-* ``summary.md`` -- the thesis-style tables (input SNR, output SNR, SNR-I, input/output
-  PESQ and PESQ-I, narrow- and wide-band) per system and noise at the thesis geometry,
-  beside the thesis' printed numbers (tables 7.1-7.9) where the condition matches;
-  averages over input SNR per system and noise with the thesis headline (EB-SS average
-  SNR-I 17 / 22 / 18 dB); RT60 and noise-azimuth sweep tables when the rows hold them;
-  failures with their messages; the data sources;
-* ``thesis_comparison.csv``, ``averages.csv``, ``conditions.csv`` (every condition),
-  ``rt60_sweep.csv`` / ``azimuth_sweep.csv`` when present, ``failures.csv``;
-* PNG figures (:mod:`benchmarks.figures`), only those the data supports.
+* a contents list (in-page links) and the overview figure (:func:`benchmarks.figures.overview_figure`);
+* :data:`HEADLINE_SECTIONS` -- the paired verdicts against ``passthrough`` and ``ss`` and the
+  ranking by its stated rule (:mod:`benchmarks.report_verdicts`);
+* the figures (:mod:`benchmarks.figures` and the sections' own), only those the data supports;
+* :data:`SECTIONS` -- the details: realistic phones, mismatch, reverberation, the thesis-style
+  tables beside the thesis' printed numbers (tables 7.1-7.9) with its headline, RT60 and
+  noise-azimuth sweeps, the honesty flags, every condition, failures (latency notes in one
+  line), data sources;
+* the files: ``verdicts.csv``, ``ranking.csv``, ``thesis_comparison.csv``, ``averages.csv``,
+  ``conditions.csv``, sweeps, ``failures.csv`` ... (a CSV without rows is not listed).
 
-Every statistic is the mean over the rows of a condition -- the seeds, each drawing its
-talker, excerpts and (with tolerances) its phone -- shown as ``mean ± half-width of the
-95 % Student-t confidence interval`` when there is more than one seed, with ``n`` seeds.  A
-spread is never taken over input SNRs.  Rows with ``status = 'error'`` are counted and
-listed, never averaged.
+Every statistic is a mean over seeds (each drawing its talker, excerpts and, with
+tolerances, its phone) shown with its ``n``: one seed gives the value, fewer than
+:data:`~benchmarks.report_tables.MIN_T_SEEDS` the seeds' min … max, more a 95 % Student-t
+interval clipped to the metric's range (:func:`~benchmarks.report_tables.stat_cell`).  A
+spread is never taken over input SNRs.  Conditions that differ only by a value drawn per seed
+are one condition.  Long tables are folded (``<details>``); columns equal in every row are
+said once below the table.  Rows with ``status = 'error'`` are counted and listed, never
+averaged.  Other modules add a section with one line (see :data:`SECTIONS`).
 """
 
 from __future__ import annotations
