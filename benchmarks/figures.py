@@ -69,7 +69,11 @@ def _markers(names: Sequence[str]) -> dict[str, str]:
 
 
 def interval_words(n: int) -> str:
-    """How an interval over ``n`` seeds is drawn (see :func:`report_tables.seed_interval`)."""
+    """How an interval over ``n`` seeds is drawn (see :func:`report_tables.seed_interval`).
+
+    >>> interval_words(2), interval_words(5)
+    ('min–max over 2 seeds', '95 % t-interval over 5 seeds')
+    """
     if n < 2:
         return "1 seed, no interval"
     return f"min–max over {n} seeds" if n < MIN_T_SEEDS else f"95 % t-interval over {n} seeds"

@@ -201,14 +201,22 @@ def _cell(rec, f, digits=None):
 
 
 def folded(summary: str, block: Sequence[str], n_rows: int) -> list[str]:
-    """``block`` as is, or inside ``<details>`` (closed) when it has more than :data:`FOLD_ROWS` rows."""
+    """``block`` as is, or inside ``<details>`` (closed) when it has more than :data:`FOLD_ROWS` rows.
+
+    >>> folded("T", ["| x |"], 20)[0]
+    '<details><summary>T (20 rows)</summary>'
+    """
     if n_rows <= FOLD_ROWS:
         return [*block, ""]
     return [f"<details><summary>{summary} ({n_rows} rows)</summary>", "", *block, "", "</details>", ""]
 
 
 def table_lines(header: Sequence[str], body: Sequence[Sequence[str]], *, keep: int = 1, summary: str = "Table") -> list[str]:
-    """A Markdown table without its constant columns (said in one line below it), folded when long."""
+    """A Markdown table without its constant columns (said in one line below it), folded when long.
+
+    >>> table_lines(["a", "n"], [["x", "1"], ["y", "1"]])[-2]
+    'Same in every row: n = 1.'
+    """
     header, body, notes = constant_columns(header, body, keep=keep)
     block = [markdown_table(header, body)]
     if notes:
@@ -419,7 +427,11 @@ def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[st
 
 def contents_lines(lines: Sequence[str]) -> list[str]:
     """An in-page contents list of the ``## `` headings in ``lines`` (anchors by
-    :func:`benchmarks.html_report.slug`)."""
+    :func:`benchmarks.html_report.slug`).
+
+    >>> contents_lines(["## Paired verdicts", "text"])[2]
+    '- [Paired verdicts](#paired-verdicts)'
+    """
     titles = [ln[3:].strip() for ln in lines if ln.startswith("## ")]
     return ["## Contents", "", *(f"- [{t}](#{slug(t)})" for t in titles), ""]
 

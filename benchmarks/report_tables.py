@@ -279,7 +279,11 @@ def drawn_keys(row: Mapping[str, Any]) -> list[str]:
 
 def group_drawn(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """Copies of ``rows`` with drawn-per-seed condition columns set to None, so the seeds of one
-    condition group together instead of one group per draw."""
+    condition group together instead of one group per draw.
+
+    >>> group_drawn([{"noise_az_deg": 141.3, "condition_json": '{"noise_az_range_deg": [100, 260]}'}])[0]["noise_az_deg"] is None
+    True
+    """
     return [{**r, **dict.fromkeys(drawn_keys(r))} for r in rows]
 
 
@@ -364,7 +368,11 @@ def rec_interval(rec: Mapping[str, Any], field: str) -> tuple[float, float] | No
 
 
 def error_bars(recs: Sequence[Mapping[str, Any]], field: str) -> list[list[float]]:
-    """Matplotlib's asymmetric ``yerr`` for ``recs`` (see :func:`rec_interval`); 0 where missing."""
+    """Matplotlib's asymmetric ``yerr`` for ``recs`` (see :func:`rec_interval`); 0 where missing.
+
+    >>> error_bars([{"x": 2.0, "x_n": 2, "x_min": 1.0, "x_max": 2.5}], "x")
+    [[1.0], [0.5]]
+    """
     lo, hi = [], []
     for r in recs:
         iv, m = rec_interval(r, field), num(r.get(field))
