@@ -183,9 +183,9 @@ def listening_html(listening: Listening) -> str:
         for clip in cond.clips:
             row = cond.rows.get(clip.enhancer, {}) if clip.enhancer else {}
             if clip.role == "mixture":
-                metrics = ("", _fmt(any_row.get("pesq_nb_in"), 2), _fmt(any_row.get("stoi_in"), 3))
+                metrics = ("", _fmt(any_row.get("pesq_nb_in"), 2), _fmt(any_row.get("stoi_in"), 2))
             else:
-                metrics = (_fmt(row.get("snr_i_db"), 1), _fmt(row.get("pesq_nb_out"), 2), _fmt(row.get("stoi_out"), 3))
+                metrics = (_fmt(row.get("snr_i_db"), 1), _fmt(row.get("pesq_nb_out"), 2), _fmt(row.get("stoi_out"), 2))
             src = html.escape(clip.path or "", quote=True)
             player = (
                 f'<audio controls preload="metadata" src="{src}" '
