@@ -157,7 +157,7 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
     body = [
         [f"`{r['enhancer']}`", f"{r['noise']} ({r['noise_field']})", _pm(r, "snr_i_db"), _pm(r, "snr_i_hagerman_db"),
          _pm(r, "snr_i_band_db"), _pm(r, "pesq_nb_raw_out"), _pm(r, "pesq_nb_raw_i"), _pm(r, "pesq_wb_out"),
-         _pm(r, "stoi_out"), str(r["n"]), fmt(r["thesis_snr_i_db"]), fmt(r["thesis_pesq_out"], 3)]
+         _pm(r, "stoi_out"), str(r["n"]), fmt(r["thesis_snr_i_db"], 1), fmt(r["thesis_pesq_out"])]
         for r in summary
     ]  # fmt: skip
     lines = [
@@ -306,7 +306,7 @@ def honesty_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], li
         a, b = num(r.get("snr_i_db")), num(r.get("snr_i_hagerman_db"))
         if a is not None and b is not None:
             diffs.setdefault(str(r["enhancer"]), []).append(a - b)
-    body = [[f"`{k}`", fmt(sum(v) / len(v)), fmt(max(v, key=abs)), str(sum(abs(x) > HAGERMAN_FLAG_DB for x in v)), str(len(v))]
+    body = [[f"`{k}`", fmt(sum(v) / len(v), 1), fmt(max(v, key=abs), 1), str(sum(abs(x) > HAGERMAN_FLAG_DB for x in v)), str(len(v))]
             for k, v in sorted(diffs.items(), key=lambda kv: (T.system_rank(kv[0]), kv[0]))]  # fmt: skip
     lines = [
         "## What the SNR numbers can and cannot say",

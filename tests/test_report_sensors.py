@@ -54,7 +54,7 @@ def test_phone_report_section_table_figure_and_no_azimuth_sweep(tmp_path):
     assert "the mean over the seeds" in text
     line = next(ln for ln in text.splitlines() if ln.startswith("| `eb` | babble (diffuse)"))
     # 3 seeds (< 5): the seeds' min … max, never a t-interval; SNR-I to one decimal
-    assert "| -1.7 (-2.0 … -1.4) |" in line and "| 3 |" in line and "13.18" in line  # thesis EB babble average
+    assert "| -1.7 (-2.0 … -1.4) |" in line and "| 3 |" in line and "| 13.2 |" in line  # thesis EB babble average 13.18 dB, one decimal
     assert "Noise azimuth sweep" not in text  # drawn azimuths are not a sweep
     assert "No rows at the thesis' conditions" in text
     names = {p.name for p in paths}
