@@ -294,7 +294,10 @@ def compare_stores(
     with ResultStore.open(dir_a, readonly=True) as sa, ResultStore.open(dir_b, readonly=True) as sb:
         rows_a, rows_b = sa.rows(), sb.rows()
         changes = sweep_differences(sa, sb)
-    records, notes = compare_rows(rows_a, rows_b, metrics=metrics)
+    try:
+        records, notes = compare_rows(rows_a, rows_b, metrics=metrics)
+    except SweepMismatch as exc:  # say what differs, in the same one line
+        raise SweepMismatch(f"{exc}; sweep parameters A -> B: {changes}") from None
     header, body, hidden = wide_table(records, metrics, show_all=show_all)
     paired = all(r["paired"] for r in records)
     how = ("Paired over seeds (B − A per condition), mean and {:.0%} Student-t CI; n = seeds where both rows are ok."

@@ -106,6 +106,7 @@ def test_compare_refuses_different_sweeps_in_one_line(stores, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0
     assert "different sweeps: 1 condition(s) only in A, 0 only in B" in err
+    assert "sweep parameters A -> B: unknown" in err  # hand-made stores record no sweep
     with pytest.raises(SweepMismatch, match="share no enhancer"):
         compare_rows([{"condition_id": "c", "enhancer": "eb"}], [{"condition_id": "c", "enhancer": "ss"}])
 
