@@ -2,7 +2,8 @@
 
 The page is the report's ``summary.md`` (tables, notes, figures) turned into HTML by a small
 converter for the Markdown subset :mod:`benchmarks.report` writes (headings, pipe tables,
-nested ``-`` lists, paragraphs, ``**bold**``, ``code`` and ``![alt](file.png)``), followed by
+nested ``-`` lists, paragraphs, ``**bold**``, ``code``, ``[text](#anchor)`` links, ``![alt](file.png)``
+and folded ``<details><summary>…</summary>`` … ``</details>`` blocks), followed by
 a "Listen" section from :mod:`benchmarks.listening`.  Everything is HTML-escaped; the page
 uses no script, no server, no network and no external CSS or fonts, so it works from
 ``file://``.  Paths in it are relative to ``report/``.
@@ -29,16 +30,32 @@ code { background: #f3f3f3; padding: 0 0.2em; }
 img { max-width: 100%; border: 1px solid #ddd; margin: 0.4em 0; }
 audio { width: 260px; height: 32px; vertical-align: middle; }
 .note { color: #8a4b00; }
+details summary { cursor: pointer; font-weight: bold; margin: 0.4em 0; }
+h2, h3 { scroll-margin-top: 0.5em; }
 section.listen { border-top: 2px solid #888; margin-top: 2em; }
 """
 
 _IMAGE = re.compile(r"^!\[([^\]]*)\]\(([^)\s]+)\)$")
+_DETAILS = re.compile(r"^<details><summary>(.*)</summary>$")  # a folded block opens (text escaped)
 _SAFE_SRC = re.compile(r"^[A-Za-z0-9_.-]+$")  # a file beside the page, nothing else
 
 
+def slug(title: str) -> str:
+    """The anchor of a heading (GitHub's rule for the ASCII subset: lower case, spaces to
+    hyphens, other punctuation dropped), so ``[x](#slug)`` links work in both renderers.
+
+    >>> slug("Paired verdicts: vs `ss` (per noise)")
+    'paired-verdicts-vs-ss-per-noise'
+    """
+    text = re.sub(r"[^\w\- ]", "", title.strip().lower())
+    return text.replace(" ", "-")
+
+
 def inline(text: str) -> str:
-    """Escape ``text`` for HTML, then render ``**bold**``, ``*italic*`` and ```code``` spans."""
+    """Escape ``text`` for HTML, then render ``**bold**``, ``*italic*``, ```code``` spans and
+    links to in-page anchors or files beside the page (``[text](#anchor)``, ``[text](file.csv)``)."""
     out = html.escape(text, quote=True)
+    out = re.sub(r"\[([^\]]+)\]\((#[\w-]+|[A-Za-z0-9_.-]+)\)", r'<a href="\2">\1</a>', out)
     out = re.sub(r"`([^`]+)`", r"<code>\1</code>", out)
     out = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", out)
     return re.sub(r"(?<![*\w])\*([^*\s][^*]*?)\*(?![*\w])", r"<em>\1</em>", out)
@@ -89,7 +106,7 @@ def markdown_to_html(text: str) -> str:
     """HTML for the Markdown subset ``summary.md`` uses (see the module docstring).
 
     >>> markdown_to_html("# A <b>\\n\\n| x |\\n|---|\\n| `1` |")
-    '<h1>A &lt;b&gt;</h1>\\n<table>\\n<thead><tr><th>x</th></tr></thead>\\n<tbody>\\n<tr><td><code>1</code></td></tr>\\n</tbody>\\n</table>'
+    '<h1 id="a-b">A &lt;b&gt;</h1>\\n<table>\\n<thead><tr><th>x</th></tr></thead>\\n<tbody>\\n<tr><td><code>1</code></td></tr>\\n</tbody>\\n</table>'
     """
     blocks: list[str] = []
     lines = text.splitlines()
@@ -103,7 +120,12 @@ def markdown_to_html(text: str) -> str:
         heading = re.match(r"^(#{1,6})\s+(.*)$", stripped)
         if heading:
             n = len(heading.group(1))
-            blocks.append(f"<h{n}>{inline(heading.group(2))}</h{n}>")
+            blocks.append(f'<h{n} id="{slug(heading.group(2))}">{inline(heading.group(2))}</h{n}>')
+            i += 1
+            continue
+        details = _DETAILS.match(stripped)
+        if details or stripped == "</details>":
+            blocks.append(f"<details><summary>{inline(details.group(1))}</summary>" if details else "</details>")
             i += 1
             continue
         j = i
@@ -121,7 +143,7 @@ def markdown_to_html(text: str) -> str:
         else:
             # A paragraph: this line (always, so the loop advances) and the plain lines after it.
             j = i + 1
-            while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |!\[)", lines[j].strip()):
+            while j < len(lines) and lines[j].strip() and not re.match(r"^(#|\||- |!\[|</?details>)", lines[j].strip()):
                 j += 1
             blocks.append("<p>" + inline(" ".join(x.strip() for x in lines[i:j])) + "</p>")
         i = j
@@ -148,6 +170,8 @@ def listening_html(listening: Listening) -> str:
     parts += [f'<p class="note">{inline(n)}</p>' for n in listening.notes]
     for cond in listening.conditions:
         parts.append(f"<h3>{inline(cond.label)} <small><code>{html.escape(cond.condition_id)}</code></small></h3>")
+        if cond.hint:
+            parts.append(f"<p>{inline(cond.hint)}</p>")
         parts += [f'<p class="note">{inline(n)}</p>' for n in cond.notes]
         if not cond.clips:
             continue
@@ -159,9 +183,9 @@ def listening_html(listening: Listening) -> str:
         for clip in cond.clips:
             row = cond.rows.get(clip.enhancer, {}) if clip.enhancer else {}
             if clip.role == "mixture":
-                metrics = ("", _fmt(any_row.get("pesq_nb_in"), 2), _fmt(any_row.get("stoi_in"), 3))
+                metrics = ("", _fmt(any_row.get("pesq_nb_in"), 2), _fmt(any_row.get("stoi_in"), 2))
             else:
-                metrics = (_fmt(row.get("snr_i_db"), 1), _fmt(row.get("pesq_nb_out"), 2), _fmt(row.get("stoi_out"), 3))
+                metrics = (_fmt(row.get("snr_i_db"), 1), _fmt(row.get("pesq_nb_out"), 2), _fmt(row.get("stoi_out"), 2))
             src = html.escape(clip.path or "", quote=True)
             player = (
                 f'<audio controls preload="metadata" src="{src}" '

@@ -51,7 +51,7 @@ class ListenOptions:
     ----------
     condition_ids : tuple of str
         Exactly these conditions (``condition_id`` of the store), in this order.  Empty:
-        choose ``count`` conditions spread over noises and input SNRs.
+        choose ``count`` conditions spread over the swept axes (:func:`choose_conditions`).
     count : int
         How many conditions to choose when ``condition_ids`` is empty (0: no audio).
     """
@@ -82,13 +82,14 @@ class Clip:
 
 @dataclass(frozen=True)
 class ListenCondition:
-    """The clips of one condition, its stored rows (metrics per enhancer) and notes."""
+    """The clips of one condition, its stored rows (metrics per enhancer), notes and what to listen for."""
 
     condition_id: str
     label: str
     clips: tuple[Clip, ...] = ()
     rows: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    hint: str = ""
 
 
 @dataclass(frozen=True)
@@ -114,36 +115,68 @@ def _spread(n: int) -> list[int]:
     return order + [i for i in range(n) if i not in order]
 
 
-def choose_conditions(rows: Sequence[Mapping[str, Any]], *, count: int) -> list[str]:
-    """``count`` condition ids spread over noises and input SNRs (ok rows only).
+#: The swept axes the picker spreads over (those with more than one value in the rows).
+LISTEN_AXES = ("rt60_s", "distance_m", "noise", "snr_in_db")
 
-    Noises take turns (alphabetical); each noise's SNRs are taken lowest, middle, highest,
-    then the rest.  For a (noise, SNR) the condition with the lowest seed, first in the
-    store's order, is used.
+
+def choose_conditions(rows: Sequence[Mapping[str, Any]], *, count: int) -> list[str]:
+    """``count`` condition ids spread over the swept axes that matter for listening
+    (:data:`LISTEN_AXES`: RT60, talker distance, noise, input SNR; ok rows only).
+
+    Every value of every axis is heard before any is heard twice
+    (:func:`benchmarks.sweep.stratified`); among equally new picks the extremes of a numeric
+    axis come first (lowest, middle, highest).  For a combination of axis values the
+    condition with the lowest seed, first in the store's order, is used.  Values drawn per
+    seed (a talker distance drawn in a range) are not an axis.
 
     >>> rows = [{"condition_id": f"{n}{s}", "noise": n, "snr_in_db": s, "seed": 0, "status": "ok"}
     ...         for n in ("wind", "babble") for s in (0, 5, 10)]
     >>> choose_conditions(rows, count=4)
-    ['babble0', 'wind0', 'babble5', 'wind5']
+    ['babble0', 'wind0', 'wind5', 'babble10']
     """
-    best: dict[tuple[str, float], tuple[int, int, str]] = {}
-    for k, r in enumerate(rows):
-        if r.get("status") != "ok" or r.get("snr_in_db") is None or not r.get("condition_id"):
-            continue
-        key = (str(r.get("noise")), float(r["snr_in_db"]))
+    from benchmarks.report_tables import distinct, drawn_keys
+    from benchmarks.sweep import stratified
+
+    ok = [r for r in rows if r.get("status") == "ok" and r.get("snr_in_db") is not None and r.get("condition_id")]
+    axes = [a for a in LISTEN_AXES if len(distinct(ok, a)) > 1 and not any(a in drawn_keys(r) for r in ok)]
+    best: dict[tuple, tuple[int, int, str]] = {}
+    for k, r in enumerate(ok):
+        key = tuple(r.get(a) for a in axes)
         cand = (int(r.get("seed") or 0), k, str(r["condition_id"]))
         if key not in best or cand < best[key]:
             best[key] = cand
-    by_noise: dict[str, list[float]] = {}
-    for noise, snr in sorted(best):
-        by_noise.setdefault(noise, []).append(snr)
-    queues = {n: [snrs[i] for i in _spread(len(snrs))] for n, snrs in by_noise.items()}
-    out: list[str] = []
-    while len(out) < count and any(queues.values()):
-        for noise, queue in queues.items():
-            if queue and len(out) < count:
-                out.append(best[(noise, queue.pop(0))][2])
-    return out
+    # Extremes first: each axis value's place in the lowest/middle/highest order.
+    rank = {a: {v: _spread(len(distinct(ok, a))).index(i) for i, v in enumerate(distinct(ok, a))} for a in axes}
+    keys = sorted(best, key=lambda k: (sum(rank[a][v] for a, v in zip(axes, k)), best[k]))
+    picked = stratified(keys, count, axes, value=lambda k, a: k[axes.index(a)])
+    picked.sort(key=keys.index)
+    return [best[k][2] for k in picked]
+
+
+def listen_for(row: Mapping[str, Any]) -> str:
+    """What to listen for in a condition, from its parameters (one sentence).
+
+    >>> listen_for({"noise": "wind", "snr_in_db": 0.0, "rt60_s": 0.0})
+    'Listen for residual wind bursts and low-frequency rumble, and for lost syllables where the noise dominates.'
+    """
+    noise = str(row.get("noise") or "")
+    hints = [_NOISE_HINTS.get(noise, f"what is left of the {noise} noise")]
+    rt60 = row.get("rt60_s") or 0.0
+    if rt60 and float(rt60) > 0:
+        hints.insert(0, f"late reverberation after the onsets (RT60 {float(rt60):.1f} s): is the tail shortened or left")
+    snr = row.get("snr_in_db")
+    if snr is not None and float(snr) <= 5:
+        hints.append("for lost syllables where the noise dominates")
+    elif snr is not None and float(snr) >= 20:
+        hints.append("for changes to the talker's timbre (little noise is left to remove)")
+    return "Listen for " + ", and ".join(hints) + "."
+
+
+_NOISE_HINTS = {
+    "wind": "residual wind bursts and low-frequency rumble",
+    "babble": "the competing talkers left behind, and musical noise (twittering tones) from spectral subtraction",
+    "factory": "residual machine hum and tones, and musical noise from spectral subtraction",
+}
 
 
 # -- rendering -----------------------------------------------------------------------------
@@ -293,12 +326,18 @@ def _write_clips(signals, fs, gains, cid, audio_dir, fmt) -> list[Clip]:
 
 
 def _label(row: Mapping[str, Any]) -> str:
+    """The condition in words, geometry rounded (drawn azimuths and distances are not exact choices)."""
+    from benchmarks.report_tables import num
     from benchmarks.sweep import Condition
 
     try:
-        return Condition.from_json(row["condition_json"]).label()
+        c = Condition.from_json(row["condition_json"])
     except Exception:
         return f"{row.get('noise')} {row.get('snr_in_db')} dB, seed {row.get('seed')}"
+    room = "free field" if c.room_dims_m is None else f"{c.room} RT60 {c.rt60_s:.1f} s, talker {c.distance_m:.2f} m"
+    naz = num(row.get("noise_az_deg"))
+    where = f"noise {naz:.0f}°" if c.noise_field == "point" and naz is not None else f"{c.noise_field} noise"
+    return f"{c.noise} {c.snr_db:g} dB, {room}, speech {c.speech_az_deg:.0f}°, {where}, seed {c.seed}"
 
 
 def build_listening(
@@ -343,9 +382,14 @@ def build_listening(
         except Exception as exc:
             out.append(ListenCondition(cid, label, rows=crow, notes=(f"{type(exc).__name__}: {exc}",)))
             continue
+        same = [n for n in crow if n in signals and signals[n].shape == signals["mixture"].shape
+                and np.array_equal(signals[n], signals["mixture"])]  # fmt: skip
+        for name in same:
+            del signals[name]
+        notes = [*notes, *(f"{n}: identical to the input mixture, not repeated" for n in same)]
         scaled, gains = match_loudness(signals, fs)
         clips = _write_clips(scaled, fs, gains, cid, audio_dir, fmt)
-        out.append(ListenCondition(cid, label, tuple(clips), crow, tuple(notes)))
+        out.append(ListenCondition(cid, label, tuple(clips), crow, tuple(notes), listen_for(next(iter(crow.values())))))
     general = (
         f"Data re-rendered from {data_dir or 'the built-in data (artificial voice, synthesized noise)'}.",
     )
@@ -361,6 +405,7 @@ __all__ = [
     "audio_format",
     "build_listening",
     "choose_conditions",
+    "listen_for",
     "match_loudness",
     "render_condition",
 ]

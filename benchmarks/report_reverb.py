@@ -30,13 +30,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from benchmarks import thesis_reference as T  # noqa: E402
-from benchmarks.figures import save_figure  # noqa: E402
+from benchmarks.figures import MARKERS, PALETTE, interval_words, save_figure  # noqa: E402
 from benchmarks.report_tables import (  # noqa: E402
+    SMALL_N_TEXT,
     aggregate_over_seeds,
     distinct,
+    error_bars,
     fmt,
     markdown_table,
     num,
+    stat_cell,
     write_csv,
 )
 
@@ -143,7 +146,7 @@ def drr_zero_crossing_m(distances: Sequence[float], drr_db: Sequence[float]) -> 
 def _table(recs: Sequence[dict], keys: Sequence[tuple[str, str]]) -> str:
     header = ["system", *(lab for _, lab in keys), "n seeds", *(lab for _, lab in _TABLE_FIELDS)]
     body = [[r["enhancer"], *(f"{r[k]:g}" for k, _ in keys), str(r["n"]),
-             *(fmt(r.get(f), 2, r.get(f + "_ci95")) for f, _ in _TABLE_FIELDS)] for r in recs]  # fmt: skip
+             *(stat_cell(r, f) for f, _ in _TABLE_FIELDS)] for r in recs]  # fmt: skip
     return markdown_table(header, body)
 
 
@@ -151,7 +154,6 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
     names = T.system_order(r["enhancer"] for r in recs)
     groups = distinct(recs, group_key) if group_key else [None]
     fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))
-    cmap = plt.get_cmap("tab10")
     styles = ("-", "--", ":", "-.")
     specs = (("sinr_i_db", "SINR-I (dB)"), ("drr_gain_db", "DRR gain (dB)"), ("c50_gain_db", "C50 gain (dB)"), ("srmr_out", "SRMR of the output"))
     for ax, (f, label) in zip(axes, specs):
@@ -161,8 +163,8 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
                 if not sel:
                     continue
                 xs = [r[x_key] for r in sel]
-                ax.errorbar(xs, [r[f] for r in sel], yerr=[r.get(f + "_ci95") or 0.0 for r in sel], capsize=2,
-                            color=cmap(i % 10), ls=styles[g_i % 4], marker="o", ms=3,
+                ax.errorbar(xs, [r[f] for r in sel], yerr=error_bars(sel, f), capsize=2,
+                            color=PALETTE[i % len(PALETTE)], ls=styles[g_i % 4], marker=MARKERS[i % len(MARKERS)], ms=3,
                             label=name + (f", {group_key} {g:g}" if g is not None else ""))  # fmt: skip
         if logx:
             from matplotlib.ticker import NullFormatter, ScalarFormatter
@@ -174,7 +176,7 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
         ax.set(xlabel=xlabel, ylabel=label)
         ax.axhline(0.0, color="grey", lw=0.8)
         ax.grid(True, alpha=0.3)
-    axes[-1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].legend(fontsize=6, loc="best", ncol=2 if len(names) * len(groups) > 6 else 1)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     return save_figure(fig, path)
@@ -185,13 +187,14 @@ def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     recs = [r for r in acoustics if num(r.get("rt60_s")) and r.get("t30_s") is not None]
     xs = [r["rt60_s"] for r in recs]
     for f, marker, label in (("t30_s", "o", "T30 (achieved)"), ("edt_s", "s", "EDT (achieved)")):
-        ax.errorbar(xs, [r.get(f) for r in recs], yerr=[r.get(f + "_ci95") or 0.0 for r in recs], fmt=marker, capsize=2, label=label)
+        ax.errorbar(xs, [r.get(f) for r in recs], yerr=error_bars(recs, f), fmt=marker, capsize=2, label=label)
     hi = max([*xs, *(r.get("t30_s") or 0 for r in recs), *(r.get("edt_s") or 0 for r in recs), 0.1]) * 1.1
     ax.plot([0, hi], [0, hi], "k--", lw=0.8, label="target")
     ax.set(xlabel="target RT60 (s)", ylabel="achieved at the reference mic (s)", xlim=(0, hi), ylim=(0, hi))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
-    ax.set_title("RT60: target vs achieved (mean, 95 % CI over seeds)", fontsize=8)
+    n = max((r.get("n") or 0 for r in recs), default=0)
+    ax.set_title(f"RT60: target vs achieved (mean; {interval_words(n)})", fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -219,12 +222,12 @@ def rt60_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str], lis
     paths.append(write_csv(report_dir / "reverb_acoustics.csv", acoustics, acols))
     target = target_text(rows)
     n = max(r["n"] for r in summary)
-    paths.append(_panels(summary, "rt60_s", None, "RT60 (s)", f"vs RT60 ({target}); mean over noises and SNRs per seed, 95 % CI over {n} seeds", report_dir / "reverb_vs_rt60.png", False))
+    paths.append(_panels(summary, "rt60_s", None, "RT60 (s)", f"{len(distinct(summary, 'enhancer'))} systems vs RT60 ({target}); mean over noises and SNRs per seed; {interval_words(n)}", report_dir / "reverb_vs_rt60.png", False))
     paths.append(_achieved_figure(acoustics, report_dir / "rt60_achieved.png"))
     lines = ["## Reverberation study: systems vs RT60", "",
              f"Metrics against the **{target}**; late reverberation + noise is the interference of SINR "
              "(`sinr_*_db`), SNR-I counts noise only.  Each seed's mean over noises and input SNRs, then "
-             f"mean ± 95 % CI over seeds (n = {n}; talker, noise placement and phone drawn per seed).  "
+             f"the mean over seeds (n = {n}; talker, noise placement and phone drawn per seed); {SMALL_N_TEXT}  "
              "RT60 0 = anechoic free field.", "",
              f"### SINR-I, DRR/C50 gain, SRMR vs RT60 ({target})", "",
              _table(summary, (("rt60_s", "RT60 s"),)), "",
@@ -247,7 +250,7 @@ def distance_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str],
     paths.append(write_csv(report_dir / "reverb_distance_acoustics.csv", acoustics, acols))
     target = target_text(rows)
     n = max(r["n"] for r in summary)
-    paths.append(_panels(summary, "distance_m", "rt60_s", "talker distance (m)", f"vs talker distance ({target}); 95 % CI over {n} seeds", report_dir / "reverb_vs_distance.png", True))
+    paths.append(_panels(summary, "distance_m", "rt60_s", "talker distance (m)", f"{len(distinct(summary, 'enhancer'))} systems vs talker distance ({target}); {interval_words(n)}", report_dir / "reverb_vs_distance.png", True))
     crit = []
     for rt in distinct(acoustics, "rt60_s"):
         sel = sorted((r for r in acoustics if r["rt60_s"] == rt), key=lambda r: r["distance_m"])
@@ -257,7 +260,7 @@ def distance_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str],
         sig = drr_zero_crossing_m([r["distance_m"] for r in pas], [r.get("drr_in_db") for r in pas]) if pas else None
         crit.append([f"{rt:g}", fmt(rc), fmt(meas), fmt(sig)])
     lines = ["## Reverberation study: systems vs talker distance", "",
-             f"Metrics against the **{target}**; mean ± 95 % CI over seeds (n = {n}).", "",
+             f"Metrics against the **{target}**; mean over seeds (n = {n}); {SMALL_N_TEXT}", "",
              "### Critical distance", "",
              markdown_table(["RT60 s", "r_c = 0.057 sqrt(V/RT60) m", "RIR DRR = 0 dB at (m)", "input-signal DRR = 0 dB at (m)"], crit), "",
              "(Measured crossings interpolated in log distance between the swept distances; – when DRR does not "

@@ -26,15 +26,18 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from benchmarks import thesis_reference as T  # noqa: E402
-from benchmarks.figures import save_figure  # noqa: E402
+from benchmarks.figures import PALETTE, interval_words, save_figure  # noqa: E402
 from benchmarks.report_measures import SELF_NOISE_TEXT  # noqa: E402
 from benchmarks.report_tables import (  # noqa: E402
+    SMALL_N_TEXT,
     aggregate,
     aggregate_over_seeds,
     distinct,
+    error_bars,
     fmt,
     markdown_table,
     num,
+    stat_cell,
     write_csv,
 )
 
@@ -50,8 +53,8 @@ PHONE_FIELDS = ("snr_i_db", "snr_i_hagerman_db", "snr_i_band_db", "pesq_nb_raw_o
 _TOLERANCE_KEYS = ("mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz")
 
 
-def _pm(rec: dict, f: str, digits: int = 2) -> str:
-    return fmt(rec.get(f), digits, rec.get(f + "_ci95"))
+def _pm(rec: dict, f: str, digits: int | None = None) -> str:
+    return stat_cell(rec, f, digits)
 
 
 # -- phones drawn per seed -----------------------------------------------------------------
@@ -77,7 +80,8 @@ def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) ->
     snr_sets: dict[tuple, dict[Any, set]] = {}
     for r in rows:
         snr_sets.setdefault(tuple(r.get(k) for k in keys), {}).setdefault(r.get("seed"), set()).add(r.get("snr_in_db"))
-    common = {k: set.intersection(*v.values()) for k, v in snr_sets.items()}
+    # A stratified --limit can leave the seeds no common SNR: then each seed's own SNRs.
+    common = {k: set.intersection(*v.values()) or set.union(*v.values()) for k, v in snr_sets.items()}
     sel = [r for r in rows if r.get("snr_in_db") in common[tuple(r.get(k) for k in keys)]]
     out = aggregate_over_seeds(sel, keys, fields)
     for rec in out:
@@ -94,35 +98,35 @@ def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
     names = T.system_order(r["enhancer"] for r in summary)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / max(len(names), 1)
-    cmap = plt.get_cmap("tab10")
     for panel, (f, thesis_f, label) in enumerate(
         (("snr_i_db", "thesis_snr_i_db", "SNR-I (dB)"), ("pesq_nb_raw_out", "thesis_pesq_out", "output PESQ (raw P.862)"))
     ):
         ax = axes[panel]
         for i, name in enumerate(names):
-            xs, ms, cs, ts = [], [], [], []
+            xs, ms, recs, ts = [], [], [], []
             for j, noise in enumerate(noises):
                 rec = next((r for r in summary if r["enhancer"] == name and r["noise"] == noise), None)
                 if rec is None or rec.get(f) is None:
                     continue
                 xs.append(j + (i - (len(names) - 1) / 2) * width)
                 ms.append(rec[f])
-                cs.append(rec.get(f + "_ci95") or 0.0)
+                recs.append(rec)
                 ts.append(rec.get(thesis_f))
-            ax.bar(xs, ms, width, yerr=cs, capsize=2, color=cmap(i % 10), label=name)
+            ax.bar(xs, ms, width, yerr=error_bars(recs, f), capsize=2, color=PALETTE[i % len(PALETTE)], label=name)
             tx = [(x, t) for x, t in zip(xs, ts) if t is not None]
             if tx:
                 ax.plot(*zip(*tx), "k_", markersize=14, markeredgewidth=2,
                         label="thesis (ideal mics), printed" if i == names.index(next(
                             n for n in names if T.thesis_system(n))) else None)  # fmt: skip
-        ax.set_xticks(range(len(noises)), noises)
+        fields = {r["noise"]: r.get("noise_field") for r in summary}
+        ax.set_xticks(range(len(noises)), [f"{n}\n({fields[n]})" if fields.get(n) else n for n in noises])
         ax.axhline(0.0, color="grey", lw=0.8)
-        ax.set(ylabel=label)
+        ax.set(xlabel="noise (field)", ylabel=label)
         ax.grid(True, axis="y", alpha=0.3)
-    axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].legend(fontsize=7, loc="best", ncol=2)
     n = max((r["n"] for r in summary), default=0)
-    fig.suptitle(f"Realistic phones (sensors drawn per seed): mean over input SNRs, 95 % CI over {n} seeds; "
-                 "black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
+    fig.suptitle(f"{len(names)} systems on realistic phones (sensors drawn per seed), per noise: mean over input SNRs; "
+                 f"{interval_words(n)}; black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
     fig.tight_layout()
     return save_figure(fig, report_dir / "phone_vs_thesis.png")
 
@@ -153,8 +157,8 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
               "PESQ-I raw", "PESQ wb out", "STOI out", "n seeds", "thesis SNR-I (ideal mics)", "thesis PESQ out"]  # fmt: skip
     body = [
         [f"`{r['enhancer']}`", f"{r['noise']} ({r['noise_field']})", _pm(r, "snr_i_db"), _pm(r, "snr_i_hagerman_db"),
-         _pm(r, "snr_i_band_db"), _pm(r, "pesq_nb_raw_out", 3), _pm(r, "pesq_nb_raw_i", 3), _pm(r, "pesq_wb_out", 3),
-         _pm(r, "stoi_out", 3), str(r["n"]), fmt(r["thesis_snr_i_db"]), fmt(r["thesis_pesq_out"], 3)]
+         _pm(r, "snr_i_band_db"), _pm(r, "pesq_nb_raw_out"), _pm(r, "pesq_nb_raw_i"), _pm(r, "pesq_wb_out"),
+         _pm(r, "stoi_out"), str(r["n"]), fmt(r["thesis_snr_i_db"], 1), fmt(r["thesis_pesq_out"])]
         for r in summary
     ]  # fmt: skip
     lines = [
@@ -163,54 +167,15 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
         f"Each seed is one phone drawn from the production spread ({facts}), one talker and one "
         "set of noise excerpts; every row records the sensors it was computed with. Per system "
         "and noise: the mean over input SNRs "
-        f"({summary[0]['snr_values_db']} dB) of each seed's results, then **mean ± 95 % CI over "
-        "the seeds** (Student t, n seeds). SNR-I by replay of the recorded operation; *Hagerman*: "
+        f"({summary[0]['snr_values_db']} dB) of each seed's results, then **the mean over the seeds**; "
+        f"{SMALL_N_TEXT} SNR-I by replay of the recorded operation; *Hagerman*: "
         "by phase inversion; *in band*: within the band the SNR was set in. PESQ raw = raw P.862. "
         "The thesis columns are its printed averages for ideal mics in its own geometry.",
         "",
         markdown_table(header, body),
         "",
     ]
-    ranking = rank_systems(summary)
-    if len(ranking) >= 4:
-        paths.append(write_csv(report_dir / "ranking.csv", ranking,
-                               ["rank", "enhancer", "snr_i_db", "pesq_nb_raw_out", "stoi_out", "noises"]))  # fmt: skip
-        lines += [
-            "**Ranking** by SNR-I: the mean over the noises of each system's per-noise mean "
-            "(the table above); PESQ and STOI likewise. Only systems measured on every noise.",
-            "",
-            markdown_table(
-                ["rank", "system", "SNR-I (dB)", "PESQ out raw", "STOI out"],
-                [[str(r["rank"]), f"`{r['enhancer']}`", fmt(r["snr_i_db"]), fmt(r["pesq_nb_raw_out"], 3),
-                  fmt(r["stoi_out"], 3)] for r in ranking],
-            ),
-            "",
-        ]  # fmt: skip
     return lines, paths
-
-
-def rank_systems(summary: Sequence[dict]) -> list[dict[str, Any]]:
-    """Systems ranked by the mean over noises of their per-noise mean SNR-I (best first).
-
-    >>> rank_systems([{"enhancer": "a", "noise": "x", "snr_i_db": 1.0},
-    ...               {"enhancer": "b", "noise": "x", "snr_i_db": 3.0}])[0]["enhancer"]
-    'b'
-    """
-    noises = {r["noise"] for r in summary}
-    out = []
-    for name in {r["enhancer"] for r in summary}:
-        recs = [r for r in summary if r["enhancer"] == name and r.get("snr_i_db") is not None]
-        if {r["noise"] for r in recs} != noises:
-            continue
-        rec: dict[str, Any] = {"enhancer": name, "noises": " ".join(sorted(noises))}
-        for f in ("snr_i_db", "pesq_nb_raw_out", "stoi_out"):
-            vals = [r[f] for r in recs if r.get(f) is not None]
-            rec[f] = sum(vals) / len(vals) if len(vals) == len(recs) else None
-        out.append(rec)
-    out.sort(key=lambda r: -r["snr_i_db"])
-    for k, rec in enumerate(out, start=1):
-        rec["rank"] = k
-    return out
 
 
 def _fmt_corners(value) -> str:
@@ -270,7 +235,8 @@ def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -
             ax.set(title=f"{name}, {geo}", xlabel="gain mismatch rear re front (dB)", ylabel=ylabel)
             ax.grid(True, alpha=0.3)
     axes[0, -1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.suptitle(f"{ylabel} vs mic mismatch (solid: noiseless mics; dashed: with self-noise)", fontsize=10)
+    styles = "; ".join(f"{word}: self-noise {sn}" for word, sn in zip(("solid", "dashed", "dotted"), noises))
+    fig.suptitle(f"{ylabel} vs mic mismatch, {len(names)} systems x {len(geos)} noise geometries ({styles})", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -341,7 +307,7 @@ def honesty_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], li
         a, b = num(r.get("snr_i_db")), num(r.get("snr_i_hagerman_db"))
         if a is not None and b is not None:
             diffs.setdefault(str(r["enhancer"]), []).append(a - b)
-    body = [[f"`{k}`", fmt(sum(v) / len(v)), fmt(max(v, key=abs)), str(sum(abs(x) > HAGERMAN_FLAG_DB for x in v)), str(len(v))]
+    body = [[f"`{k}`", fmt(sum(v) / len(v), 1), fmt(max(v, key=abs), 1), str(sum(abs(x) > HAGERMAN_FLAG_DB for x in v)), str(len(v))]
             for k, v in sorted(diffs.items(), key=lambda kv: (T.system_rank(kv[0]), kv[0]))]  # fmt: skip
     lines = [
         "## What the SNR numbers can and cannot say",

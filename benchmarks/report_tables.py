@@ -141,6 +141,9 @@ def aggregate(
             rec[f] = m
             rec[f + "_std"] = s
             rec[f + "_ci95"] = ci95_halfwidth(s, k)
+            if m is not None:  # for the small-n display (stat_cell)
+                vals = [v for v in (num(r.get(f)) for r in members) if v is not None]
+                rec[f + "_min"], rec[f + "_max"], rec[f + "_n"] = min(vals), max(vals), k
         out.append(rec)
     return out
 
@@ -249,3 +252,197 @@ def markdown_table(header: Sequence[str], body: Sequence[Sequence[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in body]
     return "\n".join(lines)
+
+
+#: Below this many seeds a cell shows the seeds' min–max, not a t-interval (t_{0.975, n-1} is
+#: 12.7 at n = 2 and 4.3 at n = 3: such intervals say more about t than about the system).
+MIN_T_SEEDS = 5
+
+#: How a table cell's spread reads (for the sections' explanations).
+SMALL_N_TEXT = (f"n = 1: the value; n < {MIN_T_SEEDS}: mean (seeds' min … max); otherwise mean ± half-width of the "
+                "95 % Student-t interval over seeds, or mean [lo, hi]* when it is clipped to the metric's range.")
+
+#: Condition columns that a sweep may draw per seed (from ``*_range_*`` parameters) rather than sweep.
+DRAWN_KEYS = {"noise_az_deg": "noise_az_range_deg", "speech_az_deg": "speech_az_range_deg",
+              "distance_m": "distance_range_m"}  # fmt: skip
+
+
+def drawn_keys(row: Mapping[str, Any]) -> list[str]:
+    """The row's condition columns whose value was drawn per seed (its ``condition_json`` has the range).
+
+    >>> drawn_keys({"condition_json": '{"noise_az_range_deg": [100, 260]}'})
+    ['noise_az_deg']
+    """
+    text = str(row.get("condition_json") or "")
+    return [k for k, rng in DRAWN_KEYS.items() if f'"{rng}"' in text]
+
+
+def group_drawn(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Copies of ``rows`` with drawn-per-seed condition columns set to None, so the seeds of one
+    condition group together instead of one group per draw.
+
+    >>> group_drawn([{"noise_az_deg": 141.3, "condition_json": '{"noise_az_range_deg": [100, 260]}'}])[0]["noise_az_deg"] is None
+    True
+    """
+    return [{**r, **dict.fromkeys(drawn_keys(r))} for r in rows]
+
+
+#: The physical range of a metric family (prefix of the column name); improvements (``*_i``)
+#: span the range's width either way.  Intervals are clipped to it and marked.
+METRIC_RANGES: dict[str, tuple[float, float]] = {
+    "pesq_nb_raw": (-0.5, 4.5),
+    "pesq_nb": (1.0, 4.5),
+    "pesq_wb": (1.0, 4.64),
+    "stoi": (0.0, 1.0),
+    "estoi": (0.0, 1.0),
+}
+
+
+def metric_range(field: str) -> tuple[float, float] | None:
+    """The range a mean of ``field`` can take (None: unbounded, e.g. dB).
+
+    >>> metric_range("pesq_nb_raw_out"), metric_range("stoi_i"), metric_range("snr_i_db")
+    ((-0.5, 4.5), (-1.0, 1.0), None)
+    """
+    for prefix in sorted(METRIC_RANGES, key=len, reverse=True):
+        if field.startswith(prefix + "_"):
+            lo, hi = METRIC_RANGES[prefix]
+            return (lo - hi, hi - lo) if field.endswith("_i") else (lo, hi)
+    return None
+
+
+def digits_for(field: str) -> int:
+    """Decimals shown for ``field``: one for dB, two otherwise.
+
+    >>> digits_for("snr_i_db"), digits_for("pesq_nb_raw_out")
+    (1, 2)
+    """
+    return 1 if field.endswith("_db") or "_db_" in field else 2
+
+
+def stat_cell(rec: Mapping[str, Any], field: str, digits: int | None = None) -> str:
+    """One table cell for ``field`` of an :func:`aggregate` record, honest about n.
+
+    n = 1: the value; 2 <= n < :data:`MIN_T_SEEDS`: ``mean (min … max)`` over the seeds;
+    otherwise ``mean ± half-width`` of the 95 % t-interval, or ``mean [lo, hi]*`` when the
+    interval leaves the metric's range and is clipped to it.
+
+    >>> stat_cell({"x_db": 2.0, "x_db_n": 3, "x_db_min": 1.0, "x_db_max": 3.5}, "x_db")
+    '2.0 (1.0 … 3.5)'
+    >>> stat_cell({"stoi_out": 0.9, "stoi_out_n": 6, "stoi_out_ci95": 0.2}, "stoi_out")
+    '0.90 [0.70, 1.00]*'
+    """
+    digits = digits_for(field) if digits is None else digits
+    mean = num(rec.get(field))
+    if mean is None:
+        return "–"
+    n = rec.get(field + "_n") or 1
+    lo, hi = rec_interval(rec, field)
+    if n < 2 or fmt(lo, digits) == fmt(hi, digits):  # one seed, or seeds that agree to the digits shown
+        return fmt(mean, digits)
+    if n < MIN_T_SEEDS:
+        return f"{fmt(mean, digits)} ({fmt(lo, digits)} … {fmt(hi, digits)})"
+    half = num(rec.get(field + "_ci95")) or 0.0
+    if math.isclose(lo, mean - half) and math.isclose(hi, mean + half):
+        return fmt(mean, digits, half)
+    return f"{fmt(mean, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]*"
+
+
+def rec_interval(rec: Mapping[str, Any], field: str) -> tuple[float, float] | None:
+    """``(lo, hi)`` an :func:`aggregate` record's cell shows (:func:`stat_cell`): the seeds' min–max
+    below :data:`MIN_T_SEEDS`, else the clipped t-interval; None without a value.
+
+    >>> rec_interval({"stoi_out": 0.9, "stoi_out_n": 6, "stoi_out_ci95": 0.2}, "stoi_out")
+    (0.7, 1.0)
+    """
+    mean = num(rec.get(field))
+    if mean is None:
+        return None
+    n = rec.get(field + "_n") or 1
+    if n < 2:
+        return mean, mean
+    if n < MIN_T_SEEDS:
+        return rec[field + "_min"], rec[field + "_max"]
+    half = num(rec.get(field + "_ci95")) or 0.0
+    return clip_interval(field, mean - half, mean + half)
+
+
+def error_bars(recs: Sequence[Mapping[str, Any]], field: str) -> list[list[float]]:
+    """Matplotlib's asymmetric ``yerr`` for ``recs`` (see :func:`rec_interval`); 0 where missing.
+
+    >>> error_bars([{"x": 2.0, "x_n": 2, "x_min": 1.0, "x_max": 2.5}], "x")
+    [[1.0], [0.5]]
+    """
+    lo, hi = [], []
+    for r in recs:
+        iv, m = rec_interval(r, field), num(r.get(field))
+        lo.append(0.0 if iv is None else max(0.0, m - iv[0]))
+        hi.append(0.0 if iv is None else max(0.0, iv[1] - m))
+    return [lo, hi]
+
+
+def clip_interval(field: str, lo: float, hi: float) -> tuple[float, float]:
+    """``(lo, hi)`` clipped to :func:`metric_range` of ``field`` (unchanged when unbounded)."""
+    rng = metric_range(field)
+    if rng is None:
+        return lo, hi
+    return max(lo, rng[0]), min(hi, rng[1])
+
+
+def constant_columns(header: Sequence[str], body: Sequence[Sequence[str]], keep: int = 1) -> tuple[list[str], list[list[str]], list[str]]:
+    """Drop columns (after the first ``keep``) whose cells are all equal; ``(header, body, notes)``
+    where each note says ``"column = value"`` for a dropped column, so nothing is lost.
+
+    >>> constant_columns(["a", "n"], [["x", "1"], ["y", "1"]])
+    (['a'], [['x'], ['y']], ['n = 1'])
+    """
+    if len(body) < 2:
+        return list(header), [list(r) for r in body], []
+    drop = [j for j in range(keep, len(header)) if len({str(r[j]) for r in body}) == 1]
+    notes = [f"{header[j]} = {body[0][j]}" for j in drop]
+    cols = [j for j in range(len(header)) if j not in drop]
+    return [header[j] for j in cols], [[r[j] for j in cols] for r in body], notes
+
+
+def seed_means(rows: Iterable[Mapping[str, Any]], field: str) -> list[float]:
+    """Each seed's mean of ``field`` over its rows (seeds in first-seen order).
+
+    >>> seed_means([{"seed": 0, "x": 1.0}, {"seed": 0, "x": 3.0}, {"seed": 1, "x": 5.0}], "x")
+    [2.0, 5.0]
+    """
+    by_seed: dict[Any, list[float]] = {}
+    for r in rows:
+        v = num(r.get(field))
+        if v is not None:
+            by_seed.setdefault(r.get("seed"), []).append(v)
+    return [sum(v) / len(v) for v in by_seed.values()]
+
+
+def seed_interval(values: Sequence[float], field: str) -> tuple[float | None, float | None, float | None]:
+    """``(mean, lo, hi)`` of per-seed values: the 95 % t-interval clipped to the metric's range
+    for n >= :data:`MIN_T_SEEDS`, else the seeds' min and max (one seed: lo = hi = mean).
+
+    >>> seed_interval([1.0, 2.0, 3.0], "snr_i_db")
+    (2.0, 1.0, 3.0)
+    """
+    m, sd, n = mean_std(values)
+    if m is None:
+        return None, None, None
+    if n < MIN_T_SEEDS:
+        return m, min(values), max(values)
+    half = ci95_halfwidth(sd, n) or 0.0
+    lo, hi = clip_interval(field, m - half, m + half)
+    return m, lo, hi
+
+
+def interval_clipped(values: Sequence[float], field: str) -> bool:
+    """True when :func:`seed_interval` of ``values`` had to clip the t-interval to the range.
+
+    >>> interval_clipped([0.99, 0.2, 0.99, 0.99, 0.99], "stoi_out"), interval_clipped([1.0, 3.0], "stoi_out")
+    (True, False)
+    """
+    m, sd, n = mean_std(values)
+    if m is None or n < MIN_T_SEEDS:
+        return False
+    half = ci95_halfwidth(sd, n) or 0.0
+    return clip_interval(field, m - half, m + half) != (m - half, m + half)

@@ -59,9 +59,3 @@ def tradeoff_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], l
         "",
     ]
     return lines, [path]
-
-
-def extend(section: tuple[list[str], list[Path]], ok: Sequence[dict], report_dir: Path):
-    """``section`` (lines, paths) followed by the trade-off's: the one-line hook of the report."""
-    lines, paths = tradeoff_section(ok, report_dir)
-    return [*section[0], *lines], [*section[1], *paths]

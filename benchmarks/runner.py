@@ -27,7 +27,7 @@ from benchmarks.progress import LineProgress
 from benchmarks.signals import interrupted
 from benchmarks.store import ResultStore
 from benchmarks.store_report import report_meta, write_store_report
-from benchmarks.sweep import Condition, Sweep, load_sweep
+from benchmarks.sweep import Condition, Sweep, load_sweep, stratified
 from benchmarks.versioning import check_version
 from benchmarks.worker import (  # re-exported: the runner's public names before the split
     ConditionTask,
@@ -122,6 +122,7 @@ def run_sweep(
     data_dir: str | Path | None = None,
     limit: int | None = None,
     seed: int | None = None,
+    seeds: int | None = None,
     retry_errors: bool = False,
     report: bool = True,
     progress: bool = True,
@@ -137,9 +138,12 @@ def run_sweep(
     data_dir : path, optional
         Speech/noise directory; default ``$SCENESIM_DATA``, else the built-in recipes.
     limit : int, optional
-        Run only the first ``limit`` conditions of the sweep's order.
+        Run only ``limit`` conditions spread over the sweep's axes
+        (:func:`benchmarks.sweep.stratified`; the first condition is always among them).
     seed : int, optional
         Offset the seeds axis (``seeds = [0]`` becomes ``[seed]``).
+    seeds : int, optional
+        Replace the sweep's seed list by ``0 .. seeds-1`` (before ``seed`` offsets it).
     retry_errors : bool
         Recompute rows stored with ``status='error'`` (by default they count as done).
     report : bool
@@ -158,7 +162,7 @@ def run_sweep(
         recomputed; rerunning after an interruption computes only what is missing.
     """
     check_choice("executor", executor, EXECUTORS)
-    sweep, conditions = _select_conditions(sweep, seed=seed, limit=limit)
+    sweep, conditions = _select_conditions(sweep, seed=seed, limit=limit, seeds=seeds)
     data_dir = _resolve_data_dir(data_dir)
     _check_data(conditions, data_dir)
 
@@ -173,7 +177,7 @@ def run_sweep(
             sweep=sweep.name,
             source=sweep.source,
             config_toml=sweep.text,
-            options={"limit": limit, "seed": seed, "retry_errors": retry_errors, "enhancers": sweep.enhancers},
+            options={"limit": limit, "seed": seed, "seeds": seeds, "retry_errors": retry_errors, "enhancers": sweep.enhancers},
             executor=executor,
             workers=workers or (None if scheduler else os.cpu_count()),
             scheduler=scheduler,
@@ -211,17 +215,20 @@ def run_sweep(
     )
 
 
-def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: int | None):
-    """``(sweep, conditions)``: the sweep loaded, its seeds offset, its first ``limit`` conditions."""
+def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: int | None, seeds: int | None = None):
+    """``(sweep, conditions)``: the sweep loaded, its seed list replaced (``seeds``) and offset
+    (``seed``), ``limit`` of its conditions spread over its axes."""
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
+    if seeds is not None:
+        sweep = sweep.with_seeds(seeds)
     if seed is not None:
         sweep = sweep.with_seed(seed)
     conditions = sweep.conditions()
     if limit is not None:
         if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
             raise ParameterError("limit", limit, "an integer >= 1")
-        conditions = conditions[:limit]
+        conditions = stratified(conditions, limit, sweep.swept_axes)
     return sweep, conditions
 
 

@@ -484,9 +484,60 @@ class Sweep:
             raise ParameterError("seed", seed, f"an integer in [0, {limit}] (the sweep's seeds go up to {top})")
         return dataclasses.replace(self, seed_offset=self.seed_offset + seed)
 
+    def with_seeds(self, n: int) -> Sweep:
+        """The same sweep with its seed list replaced by ``0 .. n-1`` (``bench run --seeds N``).
+
+        >>> float(len(load_sweep("smoke").with_seeds(3).axes["seed"]))
+        3.0
+        """
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise ParameterError("seeds", n, "an integer >= 1")
+        return dataclasses.replace(self, axes={**self.axes, "seed": tuple(range(n))})
+
+    @property
+    def swept_axes(self) -> tuple[str, ...]:
+        """The parameters that take more than one value (``seed`` included)."""
+        return tuple(k for k, v in self.axes.items() if len(v) > 1)
+
     @property
     def n_conditions(self) -> int:
         return len(self.conditions())
+
+
+def stratified(conditions: Sequence[Any], n: int, axes: Sequence[str], *, value: Callable[[Any, str], Any] | None = None) -> list[Any]:
+    """``n`` of ``conditions`` spread over every axis in ``axes`` (``bench run --limit N``).
+
+    Greedy balancing: each pick is the condition whose axis values (and pairs of values)
+    have been picked least so far, ties to the earliest in the sweep's order, so the first
+    pick is the first condition and every axis value is taken before any is taken twice.
+    Returned in the sweep's order.  ``value(item, axis)`` reads an axis value (default:
+    the attribute of that name), so any items can be spread, e.g. results rows.
+
+    >>> sw = load_sweep("thesis")
+    >>> sorted({c.noise for c in stratified(sw.conditions(), 3, sw.swept_axes)})
+    ['babble', 'factory', 'wind']
+    """
+    conditions = list(conditions)
+    if n >= len(conditions):
+        return conditions
+    value = value or (lambda c, a: getattr(c, a, None))
+    keys = [[(a, repr(value(c, a))) for a in axes] for c in conditions]
+    counts: dict[Any, int] = {}
+    chosen: list[int] = []
+    left = set(range(len(conditions)))
+    for _ in range(n):
+        def score(i):
+            single = sum(counts.get(k, 0) for k in keys[i])
+            pairs = sum(counts.get(p, 0) for p in itertools.combinations(keys[i], 2))
+            return (single, pairs, i)
+
+        best = min(left, key=score)
+        left.discard(best)
+        chosen.append(best)
+        for k in (*keys[best], *itertools.combinations(keys[best], 2)):
+            counts[k] = counts.get(k, 0) + 1
+    return [conditions[i] for i in sorted(chosen)]
+
 
 
 def _draw_talker(values: dict[str, Any]) -> None:

@@ -5,8 +5,8 @@ Chromium is started with ``--remote-debugging-pipe``: it reads DevTools-protocol
 to descriptor 4.  :func:`inspect_page` opens one page in a fresh profile, waits for its load
 event, runs a script that waits for every ``<audio>`` element's metadata and reads every
 ``<img>``'s ``naturalWidth``, collects console errors (``console.error``, uncaught
-exceptions, and log entries such as a failed resource load) and takes a full-page
-screenshot.  Used by tests/test_html_report.py; skipped there when Chromium is absent.
+exceptions, and log entries such as a failed resource load), checks that every in-page
+link (``href="#..."``) has its target, and takes a full-page screenshot.  Used by tests/test_html_report.py; skipped there when Chromium is absent.
 """
 
 from __future__ import annotations
@@ -61,6 +61,9 @@ _PROBE_JS = """
     images: Array.from(document.images).map((i) => ({src: i.getAttribute('src'),
                                                      complete: i.complete,
                                                      naturalWidth: i.naturalWidth})),
+    links: Array.from(document.querySelectorAll('a[href^="#"]')).map((a) => ({
+      href: a.getAttribute('href'),
+      resolves: document.getElementById(decodeURIComponent(a.getAttribute('href').slice(1))) !== null})),
   };
 })
 """
@@ -85,6 +88,7 @@ class PageReport:
     console_errors: list[str] = field(default_factory=list)
     audio: list[dict] = field(default_factory=list)
     images: list[dict] = field(default_factory=list)
+    links: list[dict] = field(default_factory=list)
     screenshot_png: bytes = b""
 
 
@@ -233,5 +237,6 @@ def inspect_page(url: str, *, binary: str, media_timeout_s: float = 20.0) -> Pag
             console_errors=_console_errors(b.events),
             audio=value["audio"],
             images=value["images"],
+            links=value["links"],
             screenshot_png=base64.b64decode(shot["data"]),
         )

@@ -4,6 +4,7 @@ hand-made stores."""
 from __future__ import annotations
 
 import csv
+import json
 import sys
 
 import numpy as np
@@ -105,6 +106,7 @@ def test_compare_refuses_different_sweeps_in_one_line(stores, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0
     assert "different sweeps: 1 condition(s) only in A, 0 only in B" in err
+    assert "sweep parameters A -> B: unknown" in err  # hand-made stores record no sweep
     with pytest.raises(SweepMismatch, match="share no enhancer"):
         compare_rows([{"condition_id": "c", "enhancer": "eb"}], [{"condition_id": "c", "enhancer": "ss"}])
 
@@ -129,3 +131,62 @@ def test_load_results_without_pandas_names_the_install(stores, monkeypatch):
     monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas now raises ImportError
     with pytest.raises(ScenesimError, match=r"^benchmarks.load_results needs pandas: pip install pandas$"):
         benchmarks.load_results(stores[2])
+
+
+# -- what differs, unchanged lines, seeds that differ ------------------------------------------
+
+
+def _with_config(path, **changes):
+    """Record the smoke sweep's config (with ``changes`` to its axes) as the store's sweep."""
+    from benchmarks.sweep import load_sweep
+    from benchmarks.versioning import META_CONFIG, sweep_config
+
+    config = sweep_config(load_sweep("smoke"))
+    config["axes"].update(changes)
+    with ResultStore.open(path) as store:
+        store.set_meta(META_CONFIG, json.dumps(config))
+    return path
+
+
+def test_compare_prints_the_changed_parameters_and_hides_unchanged_lines(stores, tmp_path, capsys):
+    base, shifted, dir_a, _ = stores
+    same_ss = {k: (base[k] if k[3] == "ss" else v) for k, v in shifted.items()}
+    dir_b = _with_config(_store(tmp_path / "b4", same_ss), duration_s=[3.0])
+    _with_config(dir_a)
+    assert main(["bench", "compare", str(dir_a), str(dir_b), "--out", str(tmp_path / "c4")]) == 0
+    out = capsys.readouterr().out
+    assert "Sweep parameters that differ (A -> B): duration_s 2.0 -> 3.0." in out
+    assert "| ss |" not in out and "| eb |" in out
+    assert f"{len(GROUPS)} line(s) where no metric changed are hidden (--all shows them)" in out
+    assert main(["bench", "compare", str(dir_a), str(dir_b), "--out", str(tmp_path / "c5"), "--all"]) == 0
+    assert "| ss |" in capsys.readouterr().out
+
+
+def test_stores_that_differ_only_in_seeds_are_compared_unpaired(stores, tmp_path, rng):
+    base, _, dir_a, _ = stores
+    other = {(n, s, seed + 10, e): (rng.normal(11, 2), rng.normal(2.4, 0.3))
+             for (n, s, seed, e) in base if seed < 3}  # fmt: skip
+    dir_b = _store(tmp_path / "b5", other)
+    with ResultStore.open(dir_a, readonly=True) as sa, ResultStore.open(dir_b, readonly=True) as sb:
+        records, notes = compare_rows(sa.rows(), sb.rows(), metrics=("snr_i_db",))
+    assert any("compared **unpaired**" in n and "A: 5 seed(s)" in n and "B: 3 seed(s)" in n for n in notes)
+    for rec in records:
+        key = (rec["noise"], float(rec["snr_db"]))
+        a = [base[(*key, s, rec["enhancer"])][0] for s in SEEDS]
+        b = [other[(*key, s + 10, rec["enhancer"])][0] for s in range(3)]
+        # oracle: scipy's Welch test and its interval (tolerance 1e-12)
+        ci = stats.ttest_ind(b, a, equal_var=False).confidence_interval(0.95)
+        assert not rec["paired"] and rec["n"] == 3
+        assert (rec["ci_low"], rec["ci_high"]) == (pytest.approx(ci.low, abs=1e-12), pytest.approx(ci.high, abs=1e-12))
+        assert rec["mean_diff"] == pytest.approx(np.mean(b) - np.mean(a), abs=1e-12)
+
+
+def test_load_results_accepts_the_sweep_axis_names(stores):
+    pytest.importorskip("pandas")
+    base, _, dir_a, _ = stores
+    df = benchmarks.load_results(dir_a, snr_db=[0.0], enhancers="eb", seeds=(0, 1))
+    want = {(n, s, seed, e) for (n, s, seed, e) in base if s == 0.0 and e == "eb" and seed in (0, 1)}
+    assert len(df) == len(want) == 4 and set(df["snr_in_db"]) == {0.0} and set(df["enhancer"]) == {"eb"}
+    assert len(benchmarks.load_results(dir_a, snr_in_db=10.0)) == len([k for k in base if k[1] == 10.0])
+    with pytest.raises(ScenesimError, match="no column 'snr'"):
+        benchmarks.load_results(dir_a, snr=0)

@@ -7,6 +7,7 @@ import os
 import re
 import shutil
 import sqlite3
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ from benchmarks.listening import (
     TARGET_LEVEL_DBFS,
     ListenOptions,
     choose_conditions,
+    listen_for,
     match_loudness,
     render_condition,
 )
@@ -28,9 +30,9 @@ from benchmarks.store import ResultStore
 from scenesim.errors import ParameterError
 from scenesim.mixing import active_speech_power
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-#: Where the browser test keeps its screenshot (git-ignored); ``$SCENESIM_ARTIFACTS`` overrides.
-ARTIFACTS = Path(os.environ.get("SCENESIM_ARTIFACTS", REPO_ROOT / "artifacts"))
+#: Where the browser test keeps its screenshot (a temporary folder, never the repository);
+#: ``$SCENESIM_ARTIFACTS`` overrides.
+ARTIFACTS = Path(os.environ.get("SCENESIM_ARTIFACTS", Path(tempfile.gettempdir()) / "scenesim-artifacts"))
 #: Chromium's <audio>.duration of an Ogg Vorbis clip exceeds the written length by one
 #: Vorbis short block (256 samples = 16 ms at 16 kHz: the stream's last page is padded to a
 #: block); soundfile reads the exact length back.  30 ms covers that and no more.
@@ -94,13 +96,31 @@ def test_choose_conditions_spreads_noises_and_snrs():
         for s in (25, 0, 5, 10, 15, 20)
     ]
     rows.append({"condition_id": "err", "noise": "zzz", "snr_in_db": 0, "seed": 0, "status": "error"})
-    # lowest then middle SNR of each noise, alphabetical noises taking turns, lowest seed
-    assert choose_conditions(rows, count=6) == [
-        "babble-0-0", "factory-0-0", "wind-0-0", "babble-10-0", "factory-10-0", "wind-10-0",
-    ]  # fmt: skip
-    assert choose_conditions(rows, count=8)[6:] == ["babble-25-0", "factory-25-0"]
+    six = choose_conditions(rows, count=6)
+    # every noise twice, every SNR once, the lowest seed, the extremes of SNR first
+    assert sorted(c.split("-")[0] for c in six) == ["babble"] * 2 + ["factory"] * 2 + ["wind"] * 2
+    assert sorted(int(c.split("-")[1]) for c in six) == [0, 5, 10, 15, 20, 25]
+    assert all(c.endswith("-0") for c in six) and six[0] == "babble-0-0"
     assert choose_conditions(rows, count=0) == []
     assert len(choose_conditions(rows, count=100)) == 18
+
+
+def test_choose_conditions_spans_rt60_and_distance():
+    # The reverb page used to play only RT60 0: with RT60 and distance swept, 4 picks hear
+    # every RT60 and both distances, and both noises.
+    rows = [{"condition_id": f"{rt}-{d}-{n}-{s}", "rt60_s": rt, "distance_m": d, "noise": n, "snr_in_db": s,
+             "seed": 0, "status": "ok"}
+            for rt in (0.0, 0.3, 0.6, 0.9) for d in (0.5, 2.0) for n in ("babble", "factory") for s in (0, 10)]  # fmt: skip
+    four = [r for c in choose_conditions(rows, count=4) for r in rows if r["condition_id"] == c]
+    assert sorted(r["rt60_s"] for r in four) == [0.0, 0.3, 0.6, 0.9]
+    assert {r["distance_m"] for r in four} == {0.5, 2.0} and {r["noise"] for r in four} == {"babble", "factory"}
+
+
+def test_listen_for_names_what_the_condition_tests():
+    assert "late reverberation" in listen_for({"noise": "babble", "rt60_s": 0.6, "snr_in_db": 10})
+    assert "late reverberation" not in listen_for({"noise": "babble", "rt60_s": 0.0, "snr_in_db": 10})
+    assert "wind bursts" in listen_for({"noise": "wind", "rt60_s": 0.0, "snr_in_db": 10})
+    assert "musical noise" in listen_for({"noise": "factory", "rt60_s": 0.0, "snr_in_db": 25})
 
 
 def test_listen_options_are_validated():
@@ -182,7 +202,8 @@ def test_missing_data_and_changed_specs_are_said_on_the_page(smoke_copy, tmp_pat
     write_index(report, "# t", rows, store_dir=store_dir, listen=ListenOptions((cids[0], "nosuchid")))
     page = _page(report)
     assert "ss: not played, its stored spec differs" in page
-    assert page.count("<audio") == 5  # reference, mixture, eb, eb-ss, passthrough
+    assert page.count("<audio") == 4  # reference, mixture, eb, eb-ss (passthrough = the mixture)
+    assert "passthrough: identical to the input mixture, not repeated" in page
     assert "nosuchid" in page and "no &#x27;ok&#x27; rows with this condition_id" in page
 
     db = sqlite3.connect(store_dir / "results.sqlite")
@@ -215,15 +236,19 @@ def test_page_in_headless_chromium(smoke_copy, chromium, capsys):
     shot = ARTIFACTS / "report_index.png"
     shot.write_bytes(seen.screenshot_png)
     assert seen.console_errors == []
-    # 3 conditions x (reference, mixture, 4 systems)
-    assert len(seen.audio) == 18
+    # the contents list links every section heading, and every in-page link resolves
+    headings = re.findall(r"^## (.+)$", (report / "summary.md").read_text(encoding="utf-8"), flags=re.M)
+    assert len(seen.links) >= len(headings) - 1 >= 5  # all but "Contents" itself
+    assert all(link["resolves"] for link in seen.links), [lk for lk in seen.links if not lk["resolves"]]
+    # 3 conditions x (reference, mixture, 3 systems): passthrough is the mixture, not repeated
+    assert len(seen.audio) == 15
     for a in seen.audio:
         assert (report / a["attr"]).is_file(), a
         assert a["error"] is None and a["readyState"] >= 1, a
         assert a["duration"] == pytest.approx(a["expected"], abs=DURATION_TOL_S), a
         assert a["expected"] == pytest.approx(2.0, abs=1e-9)  # the smoke clips are 2 s long
     figures = sorted(p.name for p in report.glob("*.png"))
-    assert sorted(i["src"] for i in seen.images) == figures
+    assert "overview.png" in figures and sorted(i["src"] for i in seen.images) == figures
     assert all(i["complete"] and i["naturalWidth"] > 0 for i in seen.images), seen.images
     assert seen.screenshot_png[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
 
@@ -232,6 +257,6 @@ def test_listen_flag_picks_the_conditions(smoke_copy, capsys):
     cid = _rows(smoke_copy)[-1]["condition_id"]
     assert main(["bench", "report", str(smoke_copy), "--listen", cid]) == 0
     page = _page(smoke_copy / "report")
-    assert page.count("<audio") == 6 and page.count(f"audio/{cid}_") == 6
+    assert page.count("<audio") == 5 and page.count(f"audio/{cid}_") == 5  # no passthrough: it is the mixture
     assert main(["bench", "report", str(smoke_copy), "--listen-count", "0"]) == 0
     assert "<audio" not in _page(smoke_copy / "report")

@@ -46,7 +46,8 @@ def add_parser(subparsers) -> None:
     run.add_argument("--workers", type=_positive_int, default=None, metavar="N", help="worker processes (default: CPU count)")
     run.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://10.0.0.5:8786 (with --executor dask)")
     run.add_argument("--data-dir", type=Path, default=None, metavar="DIR", help="speech/noise directory (default: $SCENESIM_DATA, else built-in)")
-    run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only the first N conditions")
+    run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only N conditions, spread over every swept axis (noise, SNR, seed, ...)")
+    run.add_argument("--seeds", type=_positive_int, default=None, metavar="N", help="replace the sweep's seed list by 0..N-1 (more seeds: tighter intervals)")
     run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
     run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
@@ -65,12 +66,13 @@ def add_parser(subparsers) -> None:
 
     cmp_ = sub.add_parser(
         "compare",
-        help="paired differences (B - A) between two stores of the same sweep, with 95%% CIs over seeds",
+        help="differences (B - A) between two stores of one sweep: its changed parameters, then 95%% CIs over seeds (paired; unpaired when only the seeds differ)",
     )
     cmp_.add_argument("dir_a", type=Path, metavar="DIR_A", help="baseline store directory")
     cmp_.add_argument("dir_b", type=Path, metavar="DIR_B", help="store compared with it")
     cmp_.add_argument("--out", type=Path, default=None, metavar="DIR", help="where compare.csv/.md go (default: DIR_B/compare)")
     cmp_.add_argument("--metrics", nargs="+", default=None, metavar="COLUMN", help="result columns to compare (default: snr_i_db pesq_nb_out pesq_wb_out stoi_out estoi_out si_sdr_out_db)")
+    cmp_.add_argument("--all", action="store_true", dest="show_all", help="also print the lines where no metric changed")
     cmp_.set_defaults(func=_compare)
 
     lst = sub.add_parser("list", help="presets, enhancers (versions, source package) and noise types")
@@ -99,21 +101,19 @@ def _nonneg_int(text: str) -> int:
 
 
 def _run(args) -> int:
-    from benchmarks.runner import run_sweep
-    from benchmarks.sweep import load_sweep
+    from benchmarks.runner import _select_conditions, run_sweep
 
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
-    sweep = load_sweep(args.sweep)
-    if args.seed:  # offset seeds must stay SQLite integers: refuse before any work, naming --seed
-        with options_named({"seed": "--seed"}):
-            sweep.with_seed(args.seed)
+    # offset seeds must stay SQLite integers: refused before any work, naming the option typed
+    with options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit"}):
+        sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds)
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 
         open_data(args.data_dir, require_speech=True)
     out = prepare_out_dir("--out", args.out)
-    slow = slow_rir_warning(sweep.conditions()[: args.limit])
+    slow = slow_rir_warning(conditions)
     if slow:
         print(f"scenesim: warning: {slow}", file=sys.stderr)
     with run_lock(out), sigterm_as_interrupt(), _store_errors(out):
@@ -128,6 +128,7 @@ def _run(args) -> int:
             data_dir=args.data_dir,
             limit=args.limit,
             seed=args.seed,
+            seeds=args.seeds,
             retry_errors=args.retry_errors,
             report=not args.no_report,
             new_version=args.new_version,
@@ -210,7 +211,7 @@ def _report(args) -> int:
 def _compare(args) -> int:
     from benchmarks.compare import DEFAULT_METRICS, compare_stores
 
-    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS))
+    text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS), show_all=args.show_all)
     print(text)
     for f in files:
         print(f)

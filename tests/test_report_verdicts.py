@@ -1,0 +1,139 @@
+"""Statistics that decide (issue 16 part 4) and the workflows that feed them (issue 20 part 5):
+paired verdicts against scipy's paired t-test, the ranking rule and its tiers, honest small-n
+cells, ``--seeds`` and the stratified ``--limit``."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from benchmarks.html_report import markdown_to_html
+from benchmarks.report import write_report
+from benchmarks.report_tables import MIN_T_SEEDS, aggregate, metric_range, stat_cell
+from benchmarks.report_verdicts import diff_cell, paired_verdicts, rank_tiers
+from benchmarks.sweep import load_sweep, stratified
+
+
+def _rows(n_seeds=6, *, gain=1.5, spread=1.0):
+    """Two systems and two baselines on babble at 0 and 10 dB; per seed, eb's SNR-I exceeds
+    passthrough's by ``gain`` plus a seed-dependent term (the paired differences vary)."""
+    rng = np.random.default_rng(7)
+    rows = []
+    for seed in range(n_seeds):
+        jitter = rng.normal(0.0, spread, size=2)
+        for k, snr in enumerate((0.0, 10.0)):
+            base = 0.3 * seed + snr / 10
+            for name, v in (("passthrough", 0.0), ("ss", 1.0), ("eb", gain + jitter[k])):
+                rows.append(dict(condition_id=f"c{seed}-{snr}", seed=seed, noise="babble", snr_in_db=snr,
+                                 enhancer=name, snr_i_db=base + v, pesq_nb_raw_out=2.0 + 0.1 * v,
+                                 stoi_out=0.8 + 0.01 * v, status="ok"))  # fmt: skip
+    return rows
+
+
+def test_paired_interval_equals_scipy_ttest_rel():
+    # Oracle: scipy.stats.ttest_rel on the per-seed means (each seed's mean over its two
+    # conditions), confidence_interval(0.95); tolerance 1e-12 (same formula, float rounding).
+    rows = _rows()
+    rec = next(r for r in paired_verdicts(rows, ("snr_i_db",)) if (r["system"], r["baseline"]) == ("eb", "passthrough"))
+    per_seed = {}
+    for r in rows:
+        per_seed.setdefault((r["seed"], r["enhancer"]), []).append(r["snr_i_db"])
+    x = [np.mean(per_seed[(s, "eb")]) for s in range(6)]
+    y = [np.mean(per_seed[(s, "passthrough")]) for s in range(6)]
+    ci = stats.ttest_rel(x, y).confidence_interval(0.95)
+    assert rec["n"] == 6
+    np.testing.assert_allclose([rec["ci_low"], rec["ci_high"]], [ci.low, ci.high], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rec["mean_diff"], np.mean(np.subtract(x, y)), atol=1e-12)
+    assert rec["verdict"] == ("better" if ci.low > 0 else "worse" if ci.high < 0 else "not resolved")
+
+
+@pytest.mark.parametrize(("gain", "expected"), [(3.0, "better"), (-3.0, "worse"), (0.0, "not resolved")])
+def test_verdicts_follow_the_interval(gain, expected):
+    recs = paired_verdicts(_rows(gain=gain, spread=0.3), ("snr_i_db",))
+    rec = next(r for r in recs if (r["system"], r["baseline"]) == ("eb", "passthrough"))
+    assert rec["verdict"] == expected
+    assert {r["baseline"] for r in recs} == {"passthrough", "ss"}
+
+
+def test_one_seed_is_never_resolved_and_small_n_shows_the_seeds():
+    rec = next(r for r in paired_verdicts(_rows(1), ("snr_i_db",)) if r["system"] == "eb")
+    assert rec["n"] == 1 and rec["ci_low"] is None and rec["verdict"] == "not resolved"
+    rec = next(r for r in paired_verdicts(_rows(3), ("snr_i_db",)) if r["system"] == "eb")
+    cell = diff_cell(rec)
+    assert "(seeds " in cell and "[" not in cell  # n = 3 < 5: min … max, no t-interval
+
+
+def test_cells_never_print_an_interval_wider_than_the_metric_range():
+    # Oracle: PESQ raw lies in [-0.5, 4.5]; two seeds 0.5 and 4.0 give a t-interval of
+    # 2.25 ± 22.2 -- the cell shows the seeds' min and max instead.
+    vals = [{"pesq_nb_raw_out": v} for v in (0.5, 4.0)]
+    rec = aggregate(vals, (), ("pesq_nb_raw_out",))[0]
+    assert rec["pesq_nb_raw_out_ci95"] > 20
+    assert stat_cell(rec, "pesq_nb_raw_out") == "2.25 (0.50 … 4.00)"
+    vals = [{"stoi_out": v} for v in (0.99, 0.2, 0.99, 0.99, 0.99)]
+    rec = aggregate(vals, (), ("stoi_out",))[0]
+    cell = stat_cell(rec, "stoi_out")
+    lo, hi = (float(x) for x in re.findall(r"\[(.*), (.*)\]", cell)[0])
+    assert cell.endswith("]*") and (lo, hi) != (0.0, 1.0) and lo >= metric_range("stoi_out")[0] and hi == 1.0
+
+
+def _rank_rows(spec, n_seeds=5):
+    return [dict(enhancer=e, seed=s, noise="babble", pesq_nb_raw_out=p + 0.02 * s, stoi_out=st, snr_i_db=snr,
+                 snr_method="phase-inversion" if e == "bb" else "replay")
+            for s in range(n_seeds) for e, p, st, snr in spec]  # fmt: skip
+
+
+def test_ranking_rule_pesq_then_stoi_then_snr_i_with_tiers_and_marks():
+    # "a" has the best SNR-I but the worst PESQ: the rule ranks it last (not by SNR-I alone).
+    spec = [("a", 1.0, 0.9, 20.0), ("b", 2.0, 0.7, 5.0), ("c", 2.0, 0.8, 1.0), ("bb", 3.0, 0.5, 0.0)]
+    ranked = rank_tiers(_rank_rows(spec), flagged=lambda r: r["enhancer"] == "b")
+    assert [r["enhancer"] for r in ranked] == ["bb", "c", "b", "a"]
+    assert [r["tier"] for r in ranked] == [1, 2, 2, 3]  # b and c overlap in PESQ: one tier
+    assert ranked[0]["black_box"] and not ranked[1]["black_box"] and ranked[2]["flagged"] == 5
+
+
+def test_report_has_contents_verdicts_and_resolving_links(tmp_path):
+    write_report(_rows(), tmp_path)
+    text = (tmp_path / "report" / "summary.md").read_text()
+    assert text.index("## Contents") < text.index("## Overview") < text.index("## Paired verdicts and ranking")
+    assert "Rule: ranked by raw PESQ" in text and f"n ≥ {MIN_T_SEEDS}" in text
+    page = markdown_to_html(text)
+    links = re.findall(r'href="#([\w-]+)"', page)
+    ids = set(re.findall(r' id="([\w-]+)"', page))
+    assert links and set(links) <= ids
+
+
+def test_seeds_option_replaces_the_seed_list():
+    sweep = load_sweep("phone").with_seeds(2)
+    assert sorted({c.seed for c in sweep.conditions()}) == [0, 1]
+    assert sweep.n_conditions == 3 * 6 * 2
+
+
+@pytest.mark.parametrize("preset", ["peers", "reverb", "phone"])
+def test_limit_is_stratified_over_every_swept_axis(preset):
+    sweep = load_sweep(preset).with_seeds(2)
+    n = max(len(sweep.axes[a]) for a in sweep.swept_axes)
+    picked = stratified(sweep.conditions(), n, sweep.swept_axes)
+    assert len(picked) == n and picked[0] == sweep.conditions()[0]
+    for axis in sweep.swept_axes:
+        counts = {v: sum(getattr(c, axis) == v for c in picked) for v in sweep.axes[axis]}
+        assert max(counts.values()) - min(counts.values()) <= 1, (axis, counts)  # balanced marginals
+
+
+def test_bench_run_seeds_and_limit_from_the_command_line(tmp_path):
+    """``--seeds 3 --limit 3`` on smoke (2 noises x 2 SNRs): three conditions, three seeds, both
+    noises and both SNRs -- the seed list is replaced without editing TOML."""
+    from benchmarks.cli.main import main
+    from benchmarks.store import ResultStore
+
+    out = tmp_path / "s"
+    argv = ["bench", "run", "smoke", "--seeds", "3", "--limit", "3", "--workers", "1", "--no-report", "--out", str(out)]
+    assert main(argv) == 0
+    with ResultStore.open(out, readonly=True) as store:
+        rows = store.rows()
+    assert len({r["condition_id"] for r in rows}) == 3
+    assert sorted({r["seed"] for r in rows}) == [0, 1, 2]
+    assert {r["noise"] for r in rows} == {"babble", "wind"} and {r["snr_in_db"] for r in rows} == {0.0, 10.0}
