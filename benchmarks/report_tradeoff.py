@@ -18,7 +18,7 @@ from pathlib import Path
 
 from benchmarks.report_tables import aggregate, fmt, markdown_table, write_csv
 
-__all__ = ["SYSTEMS", "extend", "tradeoff_records", "tradeoff_section"]
+__all__ = ["SYSTEMS", "tradeoff_records", "tradeoff_section"]
 
 SYSTEMS = ("eb", "eb-robust")
 FIELDS = ("snr_i_db", "pesq_nb_raw_out", "stoi_out")
