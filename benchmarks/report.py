@@ -28,7 +28,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures, report_reverb, report_sensors
+from benchmarks import figures, report_reverb, report_sensors, report_thesis_repro
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.html_report import write_index
@@ -295,27 +295,8 @@ def _averages_section(avg: Sequence[dict]) -> list[str]:
             "",
         ]
     if any(T.base_name(a["enhancer"]) in ("eb", "eb-ss") for a in avg):
-        lines += _READING_THE_COMPARISON
+        lines += report_thesis_repro.reading_the_comparison()
     return lines
-
-
-# Why the EB numbers differ from the printed tables; the physics is algorithms.md section 5.
-_READING_THE_COMPARISON = [
-    "**Reading the comparison.** In the thesis geometry the noise is one far-field plane wave "
-    "at 270° (broadside) on two identical mics, so both receive the same samples (no "
-    "fractional delay is involved at broadside) and a dipole (beta = 1) cancels the noise "
-    "exactly; only the beta jitter the talker causes limits our EB, which is why its SNR-I and "
-    "EB-SS's output SNRs exceed anything a phone can reach. This is the idealisation, not a "
-    "flaw of the thesis: with realistic sensors (±1 dB MEMS tolerance, unequal high-pass "
-    "corners, 30 dBA self-noise; the `phone` preset) our own EB lands in the range of the "
-    "thesis' 13–20 dB or below, and the `mismatch` preset shows how fast it falls. SS, which "
-    "sees one mic, is not affected by the idealisation; on factory noise it stays well below "
-    "the thesis' SS table (our synthetic factory noise is mostly tonal hum that minimum "
-    "statistics tracks as stationary noise only partly). PESQ depends on the speech material: "
-    "the built-in artificial voice scores lower than real talkers at the same SNR, so compare "
-    "PESQ with the thesis on real speech (`--data-dir`).",
-    "",
-]
 
 
 _COLUMN_LABELS = {
@@ -533,7 +514,8 @@ _AVERAGES_COLUMNS = ("enhancer", "thesis_system", "noise", "snr_values_db", "snr
 
 def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
     """Rows at the thesis' conditions beside its tables: two CSVs and two sections (or a note)."""
-    comparison = thesis_comparison(ok)
+    comparison = thesis_comparison([r for r in ok if not report_thesis_repro.is_repro_row(r)])
+    repro = report_thesis_repro.repro_section(ok)  # the thesis' own simulation, cell by cell
     avg = averages(comparison)
     paths = [
         write_csv(report_dir / "thesis_comparison.csv", comparison,
@@ -541,8 +523,10 @@ def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
                    *("thesis_" + c for c in _THESIS_COLS)]),
         write_csv(report_dir / "averages.csv", avg, list(_AVERAGES_COLUMNS)),
     ]  # fmt: skip
+    if repro and not comparison:
+        return repro, paths
     if comparison or not ok:
-        return [*_thesis_section(comparison), *_averages_section(avg)], paths
+        return [*repro, *_thesis_section(comparison), *_averages_section(avg)], paths
     note = ("No rows at the thesis' conditions (far field, 2.14 cm, 45°/270° point noise, anechoic, "
             "ideal sensors): no thesis tables in this report.")  # fmt: skip
     return [note, ""], paths

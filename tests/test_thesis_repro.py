@@ -143,3 +143,23 @@ def test_thesis_repro_runs_at_reduced_size(tmp_path):
     assert sorted(r["enhancer"] for r in rows) == ["eb", "eb-ss", "ss"]
     assert all(r["status"] == "ok" and math.isfinite(r["snr_i_db"]) for r in rows)
     assert json.loads(rows[0]["condition_json"])["far_field_method"] == "thesis"
+
+
+def _row(enhancer, snr_in, snr_i, pesq, method="thesis"):
+    return {"enhancer": enhancer, "noise": "babble", "snr_in_db": snr_in, "snr_i_db": snr_i,
+            "pesq_nb_raw_out": pesq, "rt60_s": 0.0, "speech_az_deg": 45.0, "noise_az_deg": 270.0,
+            "noise_field": "point", "far_field": 1, "spacing_m": 0.0214, "ideal_sensors": 1,
+            "condition_json": json.dumps({"far_field_method": method})}
+
+
+def test_repro_report_section_compares_cell_by_cell():
+    from benchmarks.report_thesis_repro import is_repro_row, repro_section
+
+    rows = [_row("eb", 0.0, 12.8492, 2.149), _row("eb", 0.0, 11.8492, 2.249), _row("eb", 25.0, 12.6527, 3.662)]
+    text = "\n".join(repro_section(rows))
+    # seed mean 12.3492 vs the printed 13.8492: -1.50; PESQ 2.199 vs 2.049: +0.150
+    assert "| 7.1 | EB | babble | 0 | 12.35 | 13.85 | -1.50 | 2.199 | 2.049 | 0.150 |" in text
+    # mean |dSNR-I| over the two cells (1.50 and 0.00) and the trend: ours 12.35 -> 12.65, thesis 13.85 -> 12.65
+    assert "mean |ΔSNR-I| **0.75 dB**" in text and "EB trend error 1.50 dB" in text
+    assert not is_repro_row(_row("eb", 0.0, 30.0, 4.0, method="exact"))
+    assert repro_section([_row("eb", 0.0, 30.0, 4.0, method="exact")]) == []
