@@ -13,7 +13,8 @@ fd_taps         odd sinc lengths 9..65: "a truncated finite length sinc" (2.5.1)
 fd_window       ``rect`` (plain truncation, the text) / ``hann`` (its section title says "windowed")
 adapt           NLMS always adapting (``mu`` 0.05 or 0.005, "free"/"slow") or frozen while the
                 frontal talker dominates (``gated``): the thesis says only "NLMS", block-averaged
-beta_max        1 (Elko: null in the rear half plane) / 0.8 (a tighter limit)
+beta_max        1 (Elko: null anywhere in the rear half plane), 0.5, 0.2 (null kept within
+                110 / 132 deg of the rear endfire: the thesis gives no limit)
 eq_fc_hz        corner of the "first-order low-pass" at the output, 50..600 Hz (not given)
 eq_hf           ``0``: that low-pass alone / ``None``: plus our high-frequency correction
 ss_alpha        SS smoothing 0.9 / 0.95 (section 5.2.6 gives the range; 6.2 lost the value)
@@ -30,8 +31,10 @@ Score of a reading over the 54 cells of tables 7.1-7.9: mean ``|ΔSNR-I|`` (dB) 
 ``|(SNR-I(25 dB) - SNR-I(0 dB)) - thesis'|`` (the thesis' EB is flat within 1.2 dB).
 Stages: (1) a coarse factorial grid on the 18 EB cells by SNR-I only (fast: the beta
 sequence does not depend on the output filter, so every ``eq`` variant reuses one run);
-(2) refine ``fd_taps`` and ``eq_fc_hz`` around the best; (3) the ``--top`` readings on all
-54 cells with SS, EB-SS and PESQ.  Readings whose EB trend error exceeds
+(2) the best kept reading of each (convention, adaptation, beta limit) family, ``--top`` of them,
+on the 18 EB cells with raw PESQ, ranked by :func:`combined` (each mean distance over its target);
+(3) refine ``fd_taps`` and ``eq_fc_hz`` around the leader by SNR-I; (4) that reading with both SS
+alphas on all 54 cells with PESQ.  Readings whose EB trend error exceeds
 :data:`TREND_LIMIT_DB` or whose EB mean ``|ΔSNR-I|`` exceeds :data:`EB_LIMIT_DB` are excluded.
 Scenes are rendered once per (model, noise) and reused.
 """
@@ -68,7 +71,7 @@ COARSE = {
     "fd_taps": (9, 17, 33, 65),
     "fd_window": ("rect", "hann"),
     "adapt": tuple(ADAPT),
-    "beta_max": (1.0, 0.8),
+    "beta_max": (1.0, 0.5, 0.2),
     "eq_fc_hz": (50.0, 150.0, 300.0, 600.0),
     "eq_hf": (0.0, None),
 }
@@ -229,12 +232,14 @@ def _pesq_raw(ref: np.ndarray, deg: np.ndarray, fs: int) -> float:
     return pesq_raw_from_mos_lqo(float(pesq(fs, ref, deg, "nb")))
 
 
-def full_cells(cells: Cells, reading: Reading, *, with_pesq: bool = True) -> dict[tuple, tuple]:
-    """All 54 cells (EB, SS, EB-SS) of one reading: SNR-I by replay and raw PESQ of the output."""
+def full_cells(cells: Cells, reading: Reading, *, with_pesq: bool = True,
+               systems: Sequence[str] = ("EB", "SS", "EB-SS")) -> dict[tuple, tuple]:
+    """The cells of ``systems`` (all 54 by default) of one reading: SNR-I by replay, raw PESQ out."""
     from benchmarks.metrics import align
 
-    systems = {"EB": _make("eb", **reading.eb_params()), "SS": _make("ss", **reading.ss_params()),
-               "EB-SS": _make("eb-ss", eb=reading.eb_params(), ss=reading.ss_params())}
+    make = {"EB": lambda: _make("eb", **reading.eb_params()), "SS": lambda: _make("ss", **reading.ss_params()),
+            "EB-SS": lambda: _make("eb-ss", eb=reading.eb_params(), ss=reading.ss_params())}
+    systems = {name: make[name]() for name in systems}
     out = {}
     for noise in cells.noises:
         images = cells.images(reading, noise)
@@ -293,9 +298,28 @@ def sensitivity(cells: Cells, best: Reading, grid: Mapping[str, Sequence] = COAR
     return out
 
 
-def run_search(cells: Cells, *, top: int = 3, with_pesq: bool = True, grid: Mapping[str, Sequence] = COARSE,
+def combined(score: Score) -> float:
+    """One number to rank by: each mean distance in units of its target (2 dB SNR-I, 0.2 PESQ)."""
+    return score.snr_i / 2.0 + (0.0 if math.isnan(score.pesq) else score.pesq / 0.2)
+
+
+def _families(scored: Mapping[Reading, Score], kept: Sequence[Reading], n: int) -> list[Reading]:
+    """The best kept reading of each (angle convention, adaptation, beta limit) family, best ``n``."""
+    best: dict[tuple, Reading] = {}
+    for r in kept:  # kept is sorted by score: the first of a family is its best
+        best.setdefault((r.azimuth_from, r.adapt, r.beta_max), r)
+    out, seen = [], set()
+    for r in sorted(best.values(), key=lambda r: scored[r].snr_i):
+        key = (round(scored[r].snr_i, 9), round(scored[r].trend, 9))  # a limit beta never reaches: same cells
+        if key not in seen:
+            seen.add(key)
+            out.append(r)
+    return out[:n]
+
+
+def run_search(cells: Cells, *, top: int = 6, with_pesq: bool = True, grid: Mapping[str, Sequence] = COARSE,
                coarse_snrs: Sequence[float] = (0.0, 10.0, 25.0), log=print) -> dict:
-    """Coarse grid -> refine -> full evaluation of the ``top`` readings; returns everything measured."""
+    """Coarse grid -> PESQ on the EB cells of the ``top`` families -> refine -> all 54 cells."""
     t0 = time.perf_counter()
     full_snrs = cells.snrs
     cells.snrs = tuple(s for s in full_snrs if s in coarse_snrs) or full_snrs
@@ -306,23 +330,27 @@ def run_search(cells: Cells, *, top: int = 3, with_pesq: bool = True, grid: Mapp
     kept = sorted((r for r in scored if r not in excluded), key=lambda r: scored[r].snr_i)
     log(f"coarse: {len(scored)} readings on {len(cells.noises) * len(coarse_snrs)} EB cells, "
         f"{len(excluded)} excluded ({time.perf_counter() - t0:.0f} s)")
-    fine = eb_snr_i(cells, refine(kept[0]) if kept else [])
-    fine_scores = {r: score_cells(c) for r, c in fine.items()}
-    ranked = sorted((r for r, s in fine_scores.items() if not excluded_because(s)), key=lambda r: fine_scores[r].snr_i)
+    families = {r: score_cells(full_cells(cells, r, with_pesq=with_pesq, systems=("EB",)))
+                for r in _families(scored, kept, top)}
+    log(f"families: {len(families)} on the 18 EB cells with PESQ ({time.perf_counter() - t0:.0f} s)")
+    if not families:
+        return {"coarse": scored, "excluded": excluded, "families": {}, "fine": {}, "finalists": [],
+                "best": None, "sensitivity": {}, "seconds": time.perf_counter() - t0}
+    lead = min(families, key=lambda r: combined(families[r]))
+    fine = {r: score_cells(c) for r, c in eb_snr_i(cells, refine(lead)).items()}
+    tuned = min((r for r, s in fine.items() if not excluded_because(s)), key=lambda r: fine[r].snr_i, default=lead)
     log(f"refine: {len(fine)} readings on the 18 EB cells ({time.perf_counter() - t0:.0f} s)")
     finalists = []
-    for r in ranked[:top]:
-        for alpha in SS_ALPHAS:
-            rr = dataclasses.replace(r, ss_alpha=alpha)
-            cells_rr = full_cells(cells, rr, with_pesq=with_pesq)
-            finalists.append((rr, score_cells(cells_rr), cells_rr))
-    finalists.sort(key=lambda t: (t[1].snr_i + (0.0 if math.isnan(t[1].pesq) else 10.0 * t[1].pesq)))
+    for alpha in SS_ALPHAS:
+        rr = dataclasses.replace(tuned, ss_alpha=alpha)
+        cells_rr = full_cells(cells, rr, with_pesq=with_pesq)
+        finalists.append((rr, score_cells(cells_rr), cells_rr))
+    finalists.sort(key=lambda t: combined(t[1]))
     log(f"final: {len(finalists)} readings on all {len(cells.noises) * len(full_snrs) * 3} cells "
         f"({time.perf_counter() - t0:.0f} s)")
-    best = finalists[0][0] if finalists else None
-    sens = sensitivity(cells, best, grid) if best else {}
-    return {"coarse": scored, "excluded": excluded, "fine": fine_scores, "finalists": finalists,
-            "best": best, "sensitivity": sens, "seconds": time.perf_counter() - t0}
+    best = finalists[0][0]
+    return {"coarse": scored, "excluded": excluded, "families": families, "fine": fine, "finalists": finalists,
+            "best": best, "sensitivity": sensitivity(cells, best, grid), "seconds": time.perf_counter() - t0}
 
 
 # -- printing ------------------------------------------------------------------------------
@@ -350,7 +378,8 @@ def _by_table() -> dict[tuple, list[ThesisRow]]:
 
 
 def exclusion_summary(result: Mapping) -> list[str]:
-    """Per unknown value: how many of its coarse readings were excluded, and the reasons counted."""
+    """Per unknown value: how many of its coarse readings were excluded, the best EB mean |ΔSNR-I|
+    among the others, and the reasons counted."""
     scored, excluded = result["coarse"], result["excluded"]
     lines = []
     for key in COARSE:
@@ -358,7 +387,8 @@ def exclusion_summary(result: Mapping) -> list[str]:
         for value in COARSE[key]:
             rs = [r for r in scored if getattr(r, key) == value]
             n_ex = sum(r in excluded for r in rs)
-            parts.append(f"{value}: {n_ex}/{len(rs)}")
+            best = min((scored[r].snr_i for r in rs if r not in excluded), default=math.nan)
+            parts.append(f"{value}: {n_ex}/{len(rs)} (best kept {best:.2f})")
         lines.append(f"  {key:13s} " + ", ".join(parts))
     reasons: dict[str, int] = {}
     for why in excluded.values():
@@ -377,6 +407,10 @@ def report_lines(result: Mapping, *, n_rank: int = 10) -> list[str]:
     for r in kept[:n_rank]:
         s = result["coarse"][r]
         lines.append(f"  {s.snr_i:12.2f} {s.trend:6.2f}  {r.label()}")
+    lines += ["", "Families (best kept of each; 18 EB cells with PESQ):",
+              f"  {'combined':>8s} {'mean|dSNR-I|':>12s} {'mean|dPESQ|':>11s} {'trend':>6s}  reading"]
+    for r, s in sorted(result["families"].items(), key=lambda t: combined(t[1])):
+        lines.append(f"  {combined(s):8.2f} {s.snr_i:12.2f} {s.pesq:11.3f} {s.trend:6.2f}  {r.label()}")
     lines += ["", "Finalists (all 54 cells):", f"  {'mean|dSNR-I|':>12s} {'mean|dPESQ|':>11s} {'trend':>6s}  reading"]
     for r, s, _ in result["finalists"]:
         lines.append(f"  {s.snr_i:12.2f} {s.pesq:11.3f} {s.trend:6.2f}  {r.label()}")
@@ -413,7 +447,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="use the directory's TYPE files for a thesis noise, e.g. babble=cafe factory=machinery")
     ap.add_argument("--duration", type=float, default=8.0, help="seconds of speech per cell (default 8)")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--top", type=int, default=3, help="readings evaluated on all 54 cells (default 3)")
+    ap.add_argument("--top", type=int, default=6, help="reading families scored with PESQ (default 6)")
     ap.add_argument("--no-pesq", action="store_true", help="skip PESQ (SNR-I only)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
