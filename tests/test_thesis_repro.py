@@ -16,7 +16,7 @@ import pytest
 
 from benchmarks.sweep import load_sweep, parse_sweep, preset_text
 from benchmarks.thesis_reference import ThesisRow
-from benchmarks.thesis_search import Reading, score_cells
+from benchmarks.thesis_search import BEST, score_cells
 from scenesim.errors import ParameterError
 from scenesim.geometry import MicPair
 from scenesim.scene import NoiseSource, Scene, SourcePlacement, render_images
@@ -120,11 +120,10 @@ def test_thesis_repro_preset_is_the_search_reading():
     cond = sweep.conditions()[0]
     assert (cond.far_field_method, cond.noise, cond.snr_db) == ("thesis", "babble", 0.0)
     assert len(sweep.conditions()) == 18
-    best = Reading(azimuth_from=cond.azimuth_from, fd_taps=cond.fd_taps, fd_window=cond.fd_window)
-    eb = dict(sweep.enhancer_params["eb"])
-    assert {k: eb[k] for k in ("adapt_gate_db", "t_samples")} == {"adapt_gate_db": 3.0, "t_samples": 1.0}
-    assert dict(sweep.enhancer_params["eb-ss"])["eb"] == eb  # the cascade uses the same EB
-    assert best.scene_key() == (cond.azimuth_from, cond.fd_taps, cond.fd_window)
+    assert (cond.azimuth_from, cond.fd_taps, cond.fd_window) == BEST.scene_key()
+    assert dict(sweep.enhancer_params["eb"]) == BEST.eb_params()
+    assert dict(sweep.enhancer_params["ss"]) == BEST.ss_params()
+    assert dict(sweep.enhancer_params["eb-ss"]) == {"eb": BEST.eb_params(), "ss": BEST.ss_params()}
 
 
 def test_thesis_repro_runs_at_reduced_size(tmp_path):
