@@ -162,3 +162,17 @@ def test_repro_report_section_compares_cell_by_cell():
     assert "mean |ΔSNR-I| **0.75 dB**" in text and "EB trend error 1.50 dB" in text
     assert not is_repro_row(_row("eb", 0.0, 30.0, 4.0, method="exact"))
     assert repro_section([_row("eb", 0.0, 30.0, 4.0, method="exact")]) == []
+
+
+def test_search_shortcut_equals_running_the_eb_with_its_output_filter():
+    """eb_snr_i runs the EB once without its low-pass and filters the replays per corner; that must
+    equal full_cells' EB run with the low-pass inside (same beta sequence: the filter is after y)."""
+    from benchmarks.thesis_search import Cells, Reading, eb_snr_i, full_cells
+
+    cells = Cells(duration_s=2.0, noises=("wind",), snrs=(5.0,))
+    readings = [Reading(fd_taps=9, eq_fc_hz=fc, adapt="free", beta_max=0.5) for fc in (60.0, 300.0)]
+    fast = eb_snr_i(cells, readings)
+    for r in readings:
+        slow = full_cells(cells, r, with_pesq=False, systems=("EB",))
+        assert fast[r][("EB", "wind", 5.0)][0] == pytest.approx(slow[("EB", "wind", 5.0)][0], abs=1e-9)
+    assert fast[readings[0]] != fast[readings[1]]  # the corner matters, so the check is not vacuous
