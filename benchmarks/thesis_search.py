@@ -1,6 +1,7 @@
 """Search the readings of the source thesis for the one that reproduces its tables 7.1-7.9.
 
-``python -m benchmarks.thesis_search [--data-dir DIR] [--alias babble=cafe ...] [--top 3]``
+``python -m benchmarks.thesis_search [--data-dir DIR] [--alias babble=cafe ...] [--top 6] [--evaluate]``
+(``--evaluate``: no search, score the preset's reading :data:`BEST` on this data.)
 
 A *reading* is one value for every unknown the thesis' text leaves open (its equations were
 lost in extraction; :mod:`scenesim.thesis_farfield` for the simulation):
@@ -455,13 +456,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--top", type=int, default=6, help="reading families scored with PESQ (default 6)")
     ap.add_argument("--no-pesq", action="store_true", help="skip PESQ (SNR-I only)")
+    ap.add_argument("--evaluate", action="store_true",
+                    help="no search: score the preset's reading (BEST) on all 54 cells of this data")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     cells = Cells(args.data_dir, duration_s=args.duration, seed=args.seed, aliases=_aliases(args.alias))
     print(f"data: {args.data_dir or 'built-in'} {_aliases(args.alias) or ''} ({time.perf_counter() - t0:.0f} s)")
+    if args.evaluate:
+        print("\n".join(evaluate_lines(cells, BEST, with_pesq=not args.no_pesq)))
+        return 0
     result = run_search(cells, top=args.top, with_pesq=not args.no_pesq)
     print("\n".join(report_lines(result)))
     return 0
+
+
+def evaluate_lines(cells: Cells, reading: Reading, *, with_pesq: bool = True) -> list[str]:
+    """One reading on all 54 cells: its score and residual table (``--evaluate``)."""
+    got = full_cells(cells, reading, with_pesq=with_pesq)
+    s = score_cells(got)
+    lines = [f"Reading: {reading.label()}",
+             f"mean |dSNR-I| {s.snr_i:.2f} dB ({s.n_snr} cells), mean |dPESQ| {s.pesq:.3f} ({s.n_pesq}), "
+             f"EB trend error {s.trend:.2f} dB",
+             f"  {'table':5s} {'system':6s} {'noise':8s} {'dSNR-I':>7s} {'|dSNR-I|':>8s} {'dPESQ':>6s}"]
+    for t, sysname, noise, d, ad, dp in residual_table(got):
+        lines.append(f"  {t:5s} {sysname:6s} {noise:8s} {d:7.2f} {ad:8.2f} {dp:6.3f}")
+    return lines
 
 
 if __name__ == "__main__":
