@@ -176,3 +176,21 @@ def test_search_shortcut_equals_running_the_eb_with_its_output_filter():
         slow = full_cells(cells, r, with_pesq=False, systems=("EB",))
         assert fast[r][("EB", "wind", 5.0)][0] == pytest.approx(slow[("EB", "wind", 5.0)][0], abs=1e-9)
     assert fast[readings[0]] != fast[readings[1]]  # the corner matters, so the check is not vacuous
+
+
+@pytest.mark.parametrize("update", ["block", "sample"])
+def test_eb_beta_limits_and_one_sample_internal_delay(update):
+    """A broadside noise alone drives beta to the dipole (least squares beta* = 1); a limit of 0.2
+    must hold it there (both NLMS variants), and t_samples fixes T fs whatever the spacing."""
+    import enhancers
+
+    x = np.random.default_rng(1).standard_normal(4000)
+    mics = np.stack([x, x])  # broadside plane wave on ideal mics
+    free = enhancers.make("eb", mu=0.5, update=update).process(mics, fs=FS).trace["beta"]
+    capped = enhancers.make("eb", mu=0.5, update=update, beta_max=0.2).process(mics, fs=FS).trace["beta"]
+    assert free[-1] > 0.99
+    assert capped.max() == pytest.approx(0.2) and capped[-1] == pytest.approx(0.2)
+    with pytest.raises(ParameterError):
+        enhancers.make("eb", beta_min=0.5, beta_max=0.2)
+    eb = enhancers.make("eb", spacing_m=0.03, t_samples=1.0)
+    assert eb.filters(FS).delay_samples == 1.0
