@@ -34,7 +34,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks import figures, report_measures, report_reverb, report_sensors, report_tradeoff
+from benchmarks import (
+    figures,
+    report_measures,
+    report_reverb,
+    report_sensors,
+    report_thesis_repro,
+    report_tradeoff,
+)
 from benchmarks import thesis_reference as T
 from benchmarks.evaluate import CROSS_WARN_RATIO
 from benchmarks.html_report import slug, write_index
@@ -232,9 +239,9 @@ def _thesis_section(comparison: Sequence[dict]) -> list[str]:
         f"The thesis geometry: anechoic, far field, 2.14 cm pair, speech at "
         f"{g['speech_az_deg']:g}°, one point noise at {g['noise_az_deg']:g}° (broadside), and "
         "**ideal sensors** -- two identical, noiseless microphones. Under these idealised conditions "
-        "our EB exceeds the thesis' tables by a wide margin while SS matches them; the cause is "
-        "being investigated (the thesis-reproduction issue), so read the EB rows as an "
-        "**ideal-sensor upper bound**, not as a reproduction. "
+        "our EB exceeds the thesis' tables by 15-32 dB while SS matches them; the thesis' own "
+        "simulation (preset `thesis-repro`) accounts for most of "
+        "the gap, so read the EB rows here as an **upper bound of the method**, not as a reproduction. "
         f"Ours: mean over seeds; {SMALL_N_TEXT} SNR-I = output SNR − input SNR at the "
         "reference mic (replay of the recorded operation on speech and noise). "
         "PESQ *raw* = raw ITU-T P.862 score (−0.5..4.5), the thesis' scale; *nb* = P.862.1 "
@@ -295,21 +302,8 @@ def _averages_section(avg: Sequence[dict]) -> list[str]:
             "",
         ]
     if any(T.base_name(a["enhancer"]) in ("eb", "eb-ss") for a in avg):
-        lines += _READING_THE_COMPARISON
+        lines += report_thesis_repro.reading_the_comparison()
     return lines
-
-
-# Why the EB numbers differ from the printed tables; the physics is algorithms.md section 5.
-_READING_THE_COMPARISON = [
-    "**Reading the comparison.** In the thesis geometry the noise is one far-field plane wave "
-    "at 270° (broadside) on two identical mics, so both receive the same samples and a dipole "
-    "(beta = 1) can cancel it exactly; our EB's SNR-I there exceeds the thesis' tables, and "
-    "why the thesis' own EB stayed lower under the same idealisation is not yet known (it is "
-    "being investigated; sensor imperfections are *not* the explanation, the thesis had none). "
-    "SS, which sees one mic, matches the thesis' SS tables more closely. PESQ depends on the "
-    "speech material: compare PESQ with the thesis on real speech (`--data-dir`).",
-    "",
-]
 
 
 _COLUMN_LABELS = {
@@ -578,8 +572,11 @@ _AVERAGES_COLUMNS = ("enhancer", "thesis_system", "noise", "snr_values_db", "snr
 
 def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
     """Rows at the thesis' conditions beside its tables: two CSVs and two sections (or a note)."""
-    comparison = thesis_comparison(ok)
+    comparison = thesis_comparison([r for r in ok if not report_thesis_repro.is_repro_row(r)])
+    repro = report_thesis_repro.repro_section(ok)  # the thesis' own simulation, cell by cell
     if not comparison:
+        if repro:
+            return repro, []
         if not ok:
             return [*_thesis_section(comparison), *_averages_section([])], []
         note = ("No rows at the thesis' conditions (far field, 2.14 cm, 45°/270° point noise, anechoic, "
@@ -592,7 +589,7 @@ def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
                    *("thesis_" + c for c in _THESIS_COLS)]),
         write_csv(report_dir / "averages.csv", avg, list(_AVERAGES_COLUMNS)),
     ]  # fmt: skip
-    return [*_thesis_section(comparison), *_averages_section(avg)], paths
+    return [*repro, *_thesis_section(comparison), *_averages_section(avg)], paths
 
 
 def _sweeps_part(generic, fields, report_dir: Path) -> tuple[list[str], list[Path]]:

@@ -56,6 +56,7 @@ import numpy as np
 from scenesim.errors import ConfigError, ParameterError, ScenesimError
 from scenesim.room import RT60_METHODS
 from scenesim.scene import NOISE_FIELDS, REFERENCES, SNR_MODES
+from scenesim.thesis_farfield import AZIMUTH_CONVENTIONS, FD_WINDOWS
 from scenesim.validate import (
     PHYSICAL_RANGES,
     check_outside_pair,
@@ -64,12 +65,14 @@ from scenesim.validate import (
     check_snr_band,
 )
 
+FAR_FIELD_METHODS = ("exact", "thesis")
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-PRESETS = ("thesis", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke")
+PRESETS = ("thesis", "thesis-repro", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke")
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1
@@ -187,6 +190,12 @@ def _pair_of(lo, hi, what):
     return check
 
 
+def _odd_taps(value):
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1 or value > 1025 or value % 2 == 0:
+        raise ValueError("an odd integer in [1, 1025] (taps)")
+    return int(value)
+
+
 def _noise_field(value):
     # A field for every noise, or a table noise type -> field (each noise its own field).
     if isinstance(value, dict):
@@ -232,6 +241,11 @@ PARAMETERS: dict[str, _Param] = {
         _noise_field, "point", "noise field type, or a table noise type -> field type"
     ),
     "far_field": _Param(_bool, True, "plane-wave (far-field) free-field propagation"),
+    # The source thesis' own far-field simulation (scenesim.thesis_farfield); exact = ours.
+    "far_field_method": _Param(_choice(FAR_FIELD_METHODS), "exact", "far-field model: 'exact' or the thesis' 'thesis'"),
+    "fd_taps": _Param(_odd_taps, 33, "thesis model: truncated-sinc length (odd)"),
+    "fd_window": _Param(_choice(FD_WINDOWS), "rect", "thesis model: window of the truncated sinc"),
+    "azimuth_from": _Param(_choice(AZIMUTH_CONVENTIONS), "axis", "thesis model: angles from the 'axis' or 'broadside'"),
     "spacing_m": _Param(_physical("spacing_m"), 0.0214, "mic spacing in m"),
     # The sensors (scenesim.sensors): nominal rear-re-front mismatch, high-pass corners,
     # self-noise against a speech level, and the production spread drawn per seed.
@@ -344,6 +358,10 @@ class Condition:
     speech_az_range_deg: tuple[float, float] | None = None
     distance_range_m: tuple[float, float] | None = None
     early_window_ms: float = 50.0
+    far_field_method: str = "exact"
+    fd_taps: int = 33
+    fd_window: str = "rect"
+    azimuth_from: str = "axis"
 
     def canonical(self) -> dict[str, Any]:
         """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
@@ -418,6 +436,10 @@ _LATE_DEFAULTS: dict[str, Any] = {
     "speech_az_range_deg": None,
     "distance_range_m": None,
     "early_window_ms": 50.0,
+    "far_field_method": "exact",
+    "fd_taps": 33,
+    "fd_window": "rect",
+    "azimuth_from": "axis",
 }
 """Condition keys added after the first release, with the value that leaves them out of the id."""
 
@@ -573,6 +595,10 @@ def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condit
         values["noise_distance_m"] = None
     if field_ != "wind":
         values["wind_speed_mps"] = _LATE_DEFAULTS["wind_speed_mps"]
+    if values["far_field_method"] == "exact" or values["rt60_s"] != 0.0 or not values["far_field"]:
+        # The thesis model is a far-field free-field one: elsewhere its keys mean nothing.
+        for key in ("far_field_method", "fd_taps", "fd_window", "azimuth_from"):
+            values[key] = _LATE_DEFAULTS[key]
     if values["rt60_s"] == 0.0:
         # Anechoic free field: no room, pair at the origin; the room name does not matter.
         return Condition(**values)

@@ -136,7 +136,11 @@ def build_scene(cond: Condition):
     from scenesim.geometry import MicPair
     from scenesim.room import ShoeBox
     from scenesim.scene import NoiseSource, Scene, SourcePlacement
+    from scenesim.thesis_farfield import ThesisFarField
 
+    thesis_model = None
+    if cond.far_field_method == "thesis":
+        thesis_model = ThesisFarField(fd_taps=cond.fd_taps, fd_window=cond.fd_window, azimuth_from=cond.azimuth_from)
     room = None
     if cond.room_dims_m is not None:
         room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
@@ -158,6 +162,7 @@ def build_scene(cond: Condition):
         seed=cond.seed,
         sensors=build_sensors(cond),
         snr_band_hz=cond.snr_band_hz,
+        thesis_far_field=thesis_model,
     )
 
 

@@ -63,6 +63,7 @@ class _DifferentialParams(Params):
     eq_fc_hz: float = 70.0
     eq_hf: float | None = None
     fd_half_len: int = 16
+    t_samples: float | None = None
 
     def _check_common(self):
         check_positive("spacing_m", self.spacing_m)
@@ -73,6 +74,8 @@ class _DifferentialParams(Params):
         if self.eq_hf is not None:
             check_range("eq_hf", self.eq_hf, 0.0, 1.0, hi_open=True)
         check_int("fd_half_len", self.fd_half_len, minimum=1, maximum=1024)
+        if self.t_samples is not None:
+            check_range("t_samples", self.t_samples, 0.0, 64.0, lo_open=True)
 
 
 @dataclass
@@ -108,7 +111,9 @@ class _DifferentialBase(Enhancer):
     def filters(self, fs: int) -> DifferentialFilters:
         """Branch filters and equaliser at ``fs`` (cached)."""
         p = self.params
-        return design_filters(spacing_m=float(p.spacing_m), c_mps=float(p.c_mps), fs=int(fs),
+        # t_samples fixes the internal delay in samples (the thesis: one sample) whatever the spacing
+        spacing = float(p.spacing_m) if p.t_samples is None else float(p.t_samples) * float(p.c_mps) / int(fs)
+        return design_filters(spacing_m=spacing, c_mps=float(p.c_mps), fs=int(fs),
                               fd_half_len=int(p.fd_half_len), eq=bool(p.eq), eq_fc_hz=float(p.eq_fc_hz),
                               eq_hf=None if p.eq_hf is None else float(p.eq_hf))
 
@@ -185,8 +190,12 @@ class ElkoBeamformer(_DifferentialBase):
     gate_floor_s : window (s) of the running minimum ``floor`` of the gate ratio, ``[0, 60]``;
         0 (default) compares with 0 dB.  Cost per call is O(window) (the sample variant keeps
         one ratio per sample of the window).
+    beta_min, beta_max : limits beta is clipped to at every update (default 0 and 1: the null
+        in the rear half plane; ``0 <= beta_min <= beta_max <= 1``).
     eq, eq_fc_hz, eq_hf : look-direction equaliser (see :mod:`enhancers.differential`).
     fd_half_len : half length of the fractional-delay filter = latency (samples).
+    t_samples : internal delay T in samples, overriding ``spacing_m / c_mps`` (None: from the
+        geometry; the thesis uses exactly one sample, "internally delayed by one sample each").
     """
 
     name: ClassVar[str] = "eb"
@@ -204,15 +213,19 @@ class ElkoBeamformer(_DifferentialBase):
         adapt_gate_db: float | None = None
         gate_lam: float | None = None
         gate_floor_s: float = 0.0
+        beta_min: float = 0.0
+        beta_max: float = 1.0
 
         def __post_init__(self):
             self._check_common()
+            check_range("beta_min", self.beta_min, 0.0, 1.0)
+            check_range("beta_max", self.beta_max, self.beta_min, 1.0)
             check_range("mu", self.mu, 0.0, 2.0, lo_open=True, hi_open=True)
             check_choice("update", self.update, ("block", "sample"))
             check_int("block_len", self.block_len, minimum=1)
             check_range("lam", self.lam, 0.0, 1.0, hi_open=True)
             check_positive("eps", self.eps, allow_zero=True)
-            check_range("beta0", self.beta0, 0.0, 1.0)
+            check_range("beta0", self.beta0, self.beta_min, self.beta_max)
             if self.adapt_gate_db is not None:
                 check_range("adapt_gate_db", self.adapt_gate_db, -60.0, 60.0)
             if self.gate_lam is not None:
@@ -285,10 +298,11 @@ class ElkoBeamformer(_DifferentialBase):
             gain[frozen] = 0.0
             keep[frozen] = 1.0
         gain, keep = gain.tolist(), keep.tolist()
+        lo, hi = float(p.beta_min), float(p.beta_max)
         betas_l = [beta]
         for g_i, k_i in zip(gain, keep):
             beta = beta * k_i + g_i
-            beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
+            beta = lo if beta < lo else (hi if beta > hi else beta)
             betas_l.append(beta)
         betas = np.asarray(betas_l[:n_blk])[k]
         open_sums = (0.0, 0.0, 0.0) if n_closed == n_blk else (
@@ -308,11 +322,12 @@ class ElkoBeamformer(_DifferentialBase):
         # a frozen sample has step 0: beta += 0 * (...) leaves it exactly unchanged
         step = np.full(cF.shape[0], mu) if frozen is None else np.where(frozen, 0.0, mu)
         beta = state.beta
+        lo, hi = float(p.beta_min), float(p.beta_max)
         betas = np.empty(cF.shape[0])
         for i, (f_, b_, d_, m_) in enumerate(zip(cF.tolist(), cB.tolist(), den.tolist(), step.tolist())):
             betas[i] = beta
             beta += m_ * (f_ - beta * b_) * b_ / d_
-            beta = 0.0 if beta < 0.0 else (1.0 if beta > 1.0 else beta)
+            beta = lo if beta < lo else (hi if beta > hi else beta)
         return betas, _replace(state, beta=beta, p_b=float(pb[-1]), p_1=float(p11[-1]), **gate_state)
 
 

@@ -62,6 +62,7 @@ from scenesim.noise_fields import (
 from scenesim.noise_hall import hall_noise
 from scenesim.room import ShoeBox
 from scenesim.sensors import SensorModel
+from scenesim.thesis_farfield import ThesisFarField, thesis_plane_wave
 from scenesim.validate import (
     check_choice,
     check_finite_number,
@@ -238,6 +239,10 @@ class Scene:
     snr_band_hz : (lo, hi), optional
         Set the SNR from the powers in this band (Hz) instead of the full band: a 0 dB wind
         whose power lies below 100 Hz is not a 0 dB condition for speech.
+    thesis_far_field : ThesisFarField, optional
+        Free field with ``far_field=True`` only: render point sources by the source thesis'
+        own model (truncated-sinc delays about the pair midpoint, its angle convention;
+        :mod:`scenesim.thesis_farfield`) instead of exact plane waves.
     max_order : int, optional
         Image-source order bound in a room (None: all images within the RIR length).
     seed : int
@@ -264,6 +269,7 @@ class Scene:
     seed: int = 0
     sensors: SensorModel | None = None
     snr_band_hz: tuple[float, float] | None = None
+    thesis_far_field: ThesisFarField | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "fs", check_fs(self.fs))
@@ -304,6 +310,8 @@ class Scene:
                 m.highpass_ba(self.fs)  # a corner at or above fs/2 raises here, not mid-render
         if self.snr_band_hz is not None:
             object.__setattr__(self, "snr_band_hz", check_band(self.snr_band_hz, fs=self.fs))
+        if self.thesis_far_field is not None and not isinstance(self.thesis_far_field, ThesisFarField):
+            raise ParameterError("thesis_far_field", self.thesis_far_field, "None or a ThesisFarField")
         if self.room is not None:
             self._check_geometry_in_room()
         else:
@@ -503,7 +511,10 @@ def _render_point(scene: Scene, x: np.ndarray, src: SourcePlacement, label: str,
     """Image ``(2, n)`` and reference ``(1, n)`` of a point source (speech or point noise)."""
     pair, fs, c, n = scene.pair, scene.fs, scene.speed_of_sound_mps, x.size
     if scene.room is None:
-        if scene.far_field:
+        if scene.far_field and scene.thesis_far_field is not None:
+            img = thesis_plane_wave(x, pair, azimuth_deg=src.direction(pair)[0], fs=fs, c=c,
+                                    model=scene.thesis_far_field)
+        elif scene.far_field:
             az, el = src.direction(pair)
             img = plane_wave(x, pair, azimuth_deg=az, elevation_deg=el, fs=fs, c=c)
         else:

@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("phone", 120, 8), ("mismatch", 96, 4), ("peers", 45, 10), ("reverb", 80, 7),
+    [("thesis", 18, 4), ("thesis-repro", 18, 3), ("phone", 120, 8), ("mismatch", 96, 4), ("peers", 45, 10), ("reverb", 80, 7),
      ("distance", 36, 7), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
@@ -90,7 +90,7 @@ def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancer
     assert sweep.name == name and sweep.description
     assert len(sweep.conditions()) == n_conditions
     assert len(sweep.enhancers) == n_enhancers
-    assert set(PRESETS) == {"thesis", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke"}
+    assert set(PRESETS) == {"thesis", "thesis-repro", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke"}
 
 
 def test_reverb_draws_talker_and_noise_per_seed_the_same_at_every_rt60():
