@@ -197,6 +197,7 @@ def run(args) -> int:
     }
     meta.update(_band_meta(room))
     meta["highpass_hz"] = args.highpass if args.highpass else None
+    meta["iso3382"] = _iso3382(room, args, mics, h, directivity)
     write_json_atomic(out / "rir.json", meta)
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
@@ -256,6 +257,17 @@ def _build_room(args, absorption):
     if args.rt60 is not None and args.rt60_method == "calibrated":
         return calibrate_room(dims, args.rt60, air=air, fs=args.fs)
     return ShoeBox(dims, absorption, rt60_s=args.rt60, rt60_method=args.rt60_method, air=air)
+
+
+def _iso3382(room, args, mics, h, directivity) -> dict:
+    """ISO 3382-1 parameters of every mic's RIR beside the target's (printed; saved in rir.json)."""
+    from benchmarks.cli.rir_iso import iso3382_table
+    from scenesim.render import room_rir
+
+    # The exact direct path, rendered as h was (same high-pass and directivity), for the exact DRR.
+    hd = room_rir(room, args.source, mics, fs=args.fs, max_order=0, length_s=h.shape[1] / args.fs,
+                  highpass_hz=args.highpass if args.highpass else None, directivity=directivity)
+    return iso3382_table(h, hd, room, args.source, mics, fs=args.fs, rt60_arg=args.rt60)
 
 
 def _band_meta(room) -> dict:
