@@ -290,7 +290,7 @@ def _render_exact(imgs: _Images, n_taps: int, fs, c, pattern=None) -> np.ndarray
 
 
 @functools.lru_cache(maxsize=32)
-def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
+def _polyphase_kernel_fft(u: int, n_fft: int, double: bool = False) -> np.ndarray:
     """FFTs ``(u, n_fft // 2 + 1)`` of the windowed-sinc kernel's polyphase branches.
 
     With ``X_j[k] = grid[k u + j]`` the decimated filter output
@@ -307,7 +307,8 @@ def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
     hp[0] = poly[0]
     for j in range(1, u):
         hp[j, 1:] = poly[u - j, :-1]
-    spec = sfft.rfft(hp, n_fft, axis=-1).astype(np.complex64)
+    spec = sfft.rfft(hp, n_fft, axis=-1)
+    spec = spec if double else spec.astype(np.complex64)
     spec.flags.writeable = False  # cached and shared between calls
     return spec
 
@@ -367,21 +368,33 @@ def _render_fast(imgs: _Images, n_taps: int, fs, c, pattern=None, oversampling: 
             imgs.counts, np.ascontiguousarray(axis, dtype=float),
             np.ascontiguousarray(coef, dtype=float), grid, scale, float(g0), q_max,
         )
-    n_fft = sfft.next_fast_len(n_blocks + 2 * half + 2, real=True)
-    kernel = _polyphase_kernel_fft(u, n_fft)
-    start = 2 * half + 1  # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1)
     out = np.empty((n_bands, n_mics, n_taps))
     for band in range(n_bands):  # one band at a time keeps the FFT buffers small
-        # x[m, j, k] = grid[k u + j], zero-padded to n_fft, C-contiguous along k (pocketfft is
-        # ~20x slower on a strided axis), float32: the FFT error (~1e-7 of the peak, absolute)
-        # is far below the interpolation error.
-        x = _workspace("x", (n_mics, u, n_fft), np.float32)
-        x[:, :, :n_blocks] = grid[band].reshape(n_mics, n_blocks, u).transpose(0, 2, 1)
-        spec = sfft.rfft(x, axis=-1)
-        spec *= kernel
-        y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
-        out[band] = y[:, start : start + n_taps]
+        out[band] = decimate_grid(grid[band], n_taps, u)
     return out
+
+
+def decimate_grid(grid: np.ndarray, n_taps: int, u: int, *, dtype=np.float32) -> np.ndarray:
+    """Filter a scatter grid ``(n_mics, n_fine)`` by the windowed sinc at the fine rate and decimate by ``u``.
+
+    ``n_fine = (2 (SINC_HALF_WIDTH + 1) + n_taps) u``; fine index ``(SINC_HALF_WIDTH + 1) u``
+    is t = 0.  Returns ``(n_mics, n_taps)``.  ``dtype`` of the FFT stage: float32 (error ~1e-7
+    of the peak, below the fast renderer's interpolation error) or float64.
+    """
+    half = SINC_HALF_WIDTH
+    n_mics = grid.shape[0]
+    n_blocks = grid.shape[1] // u
+    n_fft = sfft.next_fast_len(n_blocks + 2 * half + 2, real=True)
+    kernel = _polyphase_kernel_fft(u, n_fft, dtype != np.float32)
+    start = 2 * half + 1  # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1)
+    # x[m, j, k] = grid[k u + j], zero-padded to n_fft, C-contiguous along k (pocketfft is
+    # ~20x slower on a strided axis).
+    x = _workspace("x", (n_mics, u, n_fft), dtype)
+    x[:, :, :n_blocks] = grid.reshape(n_mics, n_blocks, u).transpose(0, 2, 1)
+    spec = sfft.rfft(x, axis=-1)
+    spec *= kernel
+    y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
+    return y[:, start : start + n_taps]
 
 
 # --------------------------------------------------------------------------- public
@@ -682,6 +695,7 @@ __all__ = [
     "SINC_HALF_WIDTH",
     "DEFAULT_MIXING_TIME_S",
     "MIN_SOURCE_MIC_DISTANCE_M",
+    "decimate_grid",
     "default_length_s",
     "image_count_l1",
     "image_source_rir",

@@ -126,3 +126,62 @@ def warm_up() -> None:
         np.zeros((1, 1, 16)), 1.0, 4.0, 8.0,
     )
     scatter_omni(z + 1.0, np.ones(1), z, np.ones(1), np.ones(1, np.int64), np.zeros((1, 16)), 1.0, 4.0, 8.0)
+
+
+@numba.njit(cache=True, nogil=True)
+def scatter_moving(x, path, hop, base, sign, gain, mics, air_np, grid, u, scale, g0, q_max):  # pragma: no cover - compiled
+    """Scatter every emitted sample of every image of a moving source onto ``grid`` in place.
+
+    x : (n,) emitted signal; sample k leaves the image at emission time k (samples)
+    path : (n_ctrl, 3) source positions every ``hop`` samples (linear between them)
+    base, sign : (n_img, 3) image position = base + sign * source position (per axis)
+    gain : (n_bands, n_img) reflection gains; air_np : (n_bands,) air attenuation in nepers/m
+    mics : (n_mics, 3); grid : (n_bands, n_mics, n_fine) float64, accumulated
+    u : oversampling U; scale : fine-grid samples per metre (fs U / c); sample k lands at
+    ``k U + r scale + g0``
+    q_max : fine positions beyond this are dropped (after the last requested tap)
+    """
+    n = x.shape[0]
+    n_ctrl = path.shape[0]
+    n_bands = gain.shape[0]
+    inv4pi = 1.0 / (4.0 * math.pi)
+    for i in range(base.shape[0]):
+        for m in range(mics.shape[0]):
+            for k in range(n):
+                xk = x[k]
+                if xk == 0.0:
+                    continue
+                pos = k / hop
+                c0 = int(pos)
+                if c0 >= n_ctrl - 1:
+                    c0 = n_ctrl - 2 if n_ctrl > 1 else 0
+                f = pos - c0 if n_ctrl > 1 else 0.0
+                c1 = c0 + 1 if n_ctrl > 1 else 0
+                r2 = 0.0
+                for d in range(3):
+                    s = path[c0, d] + f * (path[c1, d] - path[c0, d])
+                    diff = base[i, d] + sign[i, d] * s - mics[m, d]
+                    r2 += diff * diff
+                r = math.sqrt(r2)
+                q = k * u + r * scale + g0
+                if q > q_max:
+                    continue
+                fl = math.floor(q)
+                fr = q - fl
+                b0 = int(fl)
+                fm1 = fr - 1.0
+                fm2 = fr - 2.0
+                fp1 = fr + 1.0
+                w0 = -fr * fm1 * fm2 / 6.0
+                w1 = fp1 * fm1 * fm2 * 0.5
+                w2 = -fp1 * fr * fm2 * 0.5
+                w3 = fp1 * fr * fm1 / 6.0
+                spread = xk * inv4pi / r
+                for b in range(n_bands):
+                    amp = gain[b, i] * spread
+                    if air_np[b] > 0.0:
+                        amp *= math.exp(-air_np[b] * r)
+                    grid[b, m, b0 - 1] += amp * w0
+                    grid[b, m, b0] += amp * w1
+                    grid[b, m, b0 + 1] += amp * w2
+                    grid[b, m, b0 + 2] += amp * w3
