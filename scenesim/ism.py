@@ -637,20 +637,41 @@ def image_source_rir(
     bands = _bands_of(directivity, reflection_bands, bands_hz)
     n_bands = len(bands)
     refl = _band_reflection(room, reflection_bands, n_bands)
+    scat = room.scattering_table()
+    spec = refl * np.sqrt(1.0 - scat)  # specular share of every reflection (scenesim.scattering)
     if method != "hybrid":
         if mixing_time_s is not None:
             raise ParameterError("mixing_time_s", mixing_time_s, "only with method='hybrid'")
-        imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl)
+        imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec)
         h_bands = _render(imgs, n_taps, fs, c, method, pattern)
     else:
         h_bands = _hybrid(
-            room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed
+            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed
+        )
+    if room.scattering is not None and max_order != 0:  # order 0: the direct path, nothing scattered
+        from scenesim.scattering import scattered_tail
+
+        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+        h_bands = h_bands + scattered_tail(
+            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=h_bands.shape[-1], fs=fs, c=c,
+            t0_s=t0, rng=tail_rng(room, src, mics, seed, salt=1),
         )
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
         sos = signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
         h = signal.sosfilt(sos, h, axis=-1)
     return h
+
+
+def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
+    """The generator of a stochastic tail: ``seed``, or derived from the geometry when None
+    (positions in micrometres as the entropy; ``salt`` tells two tails of one RIR apart)."""
+    if seed is None:
+        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
+        seed = np.random.SeedSequence([int(w) % 2**63 for w in words] + ([salt] if salt else []))
+    elif salt and not isinstance(seed, np.random.Generator):
+        seed = np.random.SeedSequence([int(seed), salt]) if isinstance(seed, int) else seed
+    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
 def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed):
@@ -672,10 +693,7 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     early = _render(imgs, n_early, fs, c, "fast", pattern)
     if n_mix >= n_taps:
         return early[..., :n_taps]
-    if seed is None:  # geometry-derived: positions in micrometres as the seed's entropy
-        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
-        seed = np.random.SeedSequence([int(w) % 2**63 for w in words])
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    rng = tail_rng(room, src, mics, seed)
     # Level of the tail matched over [max(t_mix / 2, direct + 10 ms), t_mix): late enough to
     # hold no direct sound, long enough (>= 5 ms) to average many images; else analytic level.
     direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
