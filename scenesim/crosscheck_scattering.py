@@ -39,9 +39,14 @@ class ScatteringCheck:
 
 
 def pyroomacoustics_rt_rir(room: ShoeBox, source_m, mic_m, *, fs: int, pra_max_order: int = 3,
-                           n_rays: int = 20000) -> np.ndarray:
-    """pyroomacoustics' hybrid ISM + ray-traced RIR ``(n,)`` of one mic (our time origin, no high-pass)."""
+                           n_rays: int = 20000, seed: int = 0) -> np.ndarray:
+    """pyroomacoustics' hybrid ISM + ray-traced RIR ``(n,)`` of one mic (our time origin, no high-pass).
+
+    ``seed`` seeds pyroomacoustics' global generator (``pra.random.seed``): its rays are random.
+    """
     import pyroomacoustics as pra
+
+    pra.random.seed(seed)
 
     scat = room.scattering_table()
     materials = {name: pra.Material(energy_absorption=float(a), scattering=float(s))
