@@ -185,3 +185,30 @@ def scatter_moving(x, path, hop, base, sign, gain, mics, air_np, grid, u, scale,
                     grid[b, m, b0] += amp * w1
                     grid[b, m, b0 + 1] += amp * w2
                     grid[b, m, b0 + 2] += amp * w3
+
+
+@numba.njit(cache=True, nogil=True)
+def scattered_steps(decay, gain_prev, gain_now, inject, w, source, out):  # pragma: no cover - compiled
+    """Step the scattered-energy balance of :mod:`scenesim.scattering` (its ``_integrate``).
+
+    Per direction u: ``e_u <- decay_u e_u + gain_prev_u f_{k-1} + gain_now_u f_k`` with
+    ``f_k = source_k + inject . e(k)`` solved per step; ``out[k] = w . e(k)`` (``out[0] = 0``).
+    """
+    n_dir = decay.shape[0]
+    e = np.zeros(n_dir)
+    implicit = 0.0
+    for u in range(n_dir):
+        implicit += inject[u] * gain_now[u]
+    f_prev = source[0]
+    for k in range(1, source.shape[0]):
+        part = 0.0
+        for u in range(n_dir):
+            e[u] = decay[u] * e[u] + gain_prev[u] * f_prev
+            part += inject[u] * e[u]
+        f = (source[k] + part) / (1.0 - implicit)
+        m = 0.0
+        for u in range(n_dir):
+            e[u] += gain_now[u] * f
+            m += w[u] * e[u]
+        out[k] = m
+        f_prev = f

@@ -20,8 +20,9 @@ C = 343.0
 def _specular_level(dims, reflection, scattering, t):
     """The specular field's expected h^2 summed over directions (the model's own e_s, closed form)."""
     from scenesim.hybrid import _octant_directions
+    from scenesim.scattering import _N_DIR
 
-    u, w = _octant_directions()
+    u, w = _octant_directions(_N_DIR, _N_DIR)
     keep = np.asarray(reflection) ** 2 * (1 - np.asarray(scattering))
     loss = -0.5 * (np.log(keep[0::2]) + np.log(keep[1::2]))
     mu = (C * u / np.asarray(dims)) @ loss
@@ -31,7 +32,7 @@ def _specular_level(dims, reflection, scattering, t):
 def test_energy_is_conserved_without_absorption():
     """Oracle: energy conservation.  With no absorption, what the specular field loses to
     scattering the scattered field gains: specular + scattered = the initial level at every
-    time (1e-4: second-order integrator at 0.5 ms steps; measured 4e-5)."""
+    time (1e-4: the injection is linear within each 0.5 ms step; measured 7e-6)."""
     dims, s = (7.0, 4.0, 3.0), np.array([0.2, 0.5, 0.3, 0.3, 0.1, 0.6])
     refl = np.ones(6)
     e = scattered_energy(dims, refl[None], s[None], int(0.6 * FS), fs=FS, c=C, t0_s=0.0)[0]
@@ -45,15 +46,15 @@ def test_energy_is_conserved_without_absorption():
 def test_isotropic_scattered_field_decays_at_eyrings_rate(alpha):
     """Oracle: Eyring's formula.  Nearly total Lambert scattering (s = 0.99) keeps the scattered
     field isotropic, which meets c S / (4 V) walls per second and keeps (1 - alpha) per hit: its
-    late decay is Eyring's T = 24 ln10 V / (-c S ln(1 - alpha)) (1 %: the stiff step's
-    (mu step)^2 error and the residual anisotropy at s < 1; measured +0.3 / +0.5 %)."""
+    late decay is Eyring's T = 24 ln10 V / (-c S ln(1 - alpha)) (0.5 %: the residual
+    anisotropy at s < 1 and the 144-direction quadrature; measured +0.08 / +0.42 %)."""
     dims = (6.0, 5.0, 3.0)
     refl = np.full((1, 6), math.sqrt(1 - alpha))
     t_ey = eyring_rt60(dims, alpha, c=C)
     e = scattered_energy(dims, refl, np.full((1, 6), 0.99), int(1.5 * t_ey * FS), fs=FS, c=C, t0_s=0.0)[0]
     i0, i1 = int(0.3 * t_ey * FS), int(1.2 * t_ey * FS)
     slope = np.polyfit(np.arange(i0, i1) / FS, 10 * np.log10(e[i0:i1]), 1)[0]
-    assert -60.0 / slope == pytest.approx(t_ey, rel=1e-2)
+    assert -60.0 / slope == pytest.approx(t_ey, rel=5e-3)
 
 
 def test_no_scattering_is_the_specular_ism():
