@@ -23,6 +23,11 @@ alpha in (0, 1) and the profile's shape.  ``s`` starts from Eyring, then follows
 band.  Results are memoised with :func:`scenesim.cache.cached_array` (memory, and disk when
 ``$SCENESIM_CACHE`` is set).
 
+Diffuse reflections: the loop renders with the room's wall scattering (default
+:data:`scenesim.scattering.DEFAULT_SCATTERING`, 0.5), so the fitted absorption is the one
+that gives the target *with* the scattered field; without it the loop reached T30 by
+over-absorbing non-diffuse rooms, whose EDT then fell 29-60 % short (issue 18).
+
 The check of the result must not be the loop's own measurement at the loop's own placements:
 ``tests/test_calibration.py`` measures other placements with pyroomacoustics'
 ``experimental.measure_rt60`` on differently filtered octaves: the speech-octave mean is within
