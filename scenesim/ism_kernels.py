@@ -117,7 +117,7 @@ def scatter_omni(dx2, gx, dyz2, gyz, counts, grid, scale, g0, q_max):  # pragma:
 
 
 def warm_up() -> None:
-    """Compile (or load from cache) both kernels on tiny inputs."""
+    """Compile (or load from cache) every kernel on tiny inputs."""
     z = np.zeros((1, 1))
     g = np.ones((1, 1))
     scatter_images(
@@ -126,6 +126,10 @@ def warm_up() -> None:
         np.zeros((1, 1, 16)), 1.0, 4.0, 8.0,
     )
     scatter_omni(z + 1.0, np.ones(1), z, np.ones(1), np.ones(1, np.int64), np.zeros((1, 16)), 1.0, 4.0, 8.0)
+    one = np.ones(1)
+    scattered_steps(one * 0.5, one, one, one * 0.1, one, np.ones(3), np.zeros(3))  # every scattered room
+    scatter_moving(one, np.zeros((1, 3)), 1.0, np.ones((1, 3)), np.ones((1, 3)), g, np.zeros((1, 3)),
+                   np.zeros(1), np.zeros((1, 1, 64)), 1, 1.0, 8.0, 40.0)  # moving sources
 
 
 @numba.njit(cache=True, nogil=True)
