@@ -54,11 +54,11 @@ _N_TIME = 96  # envelope evaluated on this many times and interpolated in log en
 _B_MIN = 0.1  # wall reflections below this (alpha > 0.99) enter the envelope as 0.1, see below
 
 
-@functools.lru_cache(maxsize=1)
-def _octant_directions():
+@functools.lru_cache(maxsize=4)
+def _octant_directions(n_mu: int = _N_MU, n_phi: int = _N_PHI):
     """Unit vectors (n, 3) in the first octant and quadrature weights (n,) summing to 1."""
-    x_mu, w_mu = np.polynomial.legendre.leggauss(_N_MU)
-    x_phi, w_phi = np.polynomial.legendre.leggauss(_N_PHI)
+    x_mu, w_mu = np.polynomial.legendre.leggauss(n_mu)
+    x_phi, w_phi = np.polynomial.legendre.leggauss(n_phi)
     mu = 0.5 * (x_mu + 1.0)
     phi = 0.25 * np.pi * (x_phi + 1.0)
     mu, phi = np.meshgrid(mu, phi, indexing="ij")
