@@ -19,6 +19,17 @@ import numba
 import numpy as np
 
 
+@numba.njit(cache=True, inline="always")
+def lagrange4(q):  # pragma: no cover - compiled
+    """``(floor(q), w0..w3)``: 4-point (cubic) Lagrange weights of the nodes floor(q) - 1 .. + 2 at q."""
+    fl = math.floor(q)
+    f = q - fl
+    fm1 = f - 1.0
+    fm2 = f - 2.0
+    fp1 = f + 1.0
+    return int(fl), -f * fm1 * fm2 / 6.0, fp1 * fm1 * fm2 * 0.5, -fp1 * f * fm2 * 0.5, fp1 * f * fm1 / 6.0
+
+
 @numba.njit(cache=True, fastmath=False, nogil=True)
 def scatter_images(
     offx, gx, offy, gy, offz, gz, pj, pk, counts, axis, coef, grid, scale, g0, q_max
@@ -53,17 +64,7 @@ def scatter_images(
                 q = r * scale + g0
                 if q > q_max:
                     continue
-                fl = math.floor(q)
-                f = q - fl
-                base = int(fl)
-                # 4-point Lagrange weights at nodes -1, 0, 1, 2.
-                fm1 = f - 1.0
-                fm2 = f - 2.0
-                fp1 = f + 1.0
-                w0 = -f * fm1 * fm2 / 6.0
-                w1 = fp1 * fm1 * fm2 * 0.5
-                w2 = -fp1 * f * fm2 * 0.5
-                w3 = fp1 * f * fm1 / 6.0
+                base, w0, w1, w2, w3 = lagrange4(q)
                 spread = inv4pi / r
                 cos_t = 0.0
                 if n_coef > 0:
@@ -170,16 +171,7 @@ def scatter_moving(x, path, hop, base, sign, gain, mics, air_np, grid, u, scale,
                 q = k * u + r * scale + g0
                 if q > q_max:
                     continue
-                fl = math.floor(q)
-                fr = q - fl
-                b0 = int(fl)
-                fm1 = fr - 1.0
-                fm2 = fr - 2.0
-                fp1 = fr + 1.0
-                w0 = -fr * fm1 * fm2 / 6.0
-                w1 = fp1 * fm1 * fm2 * 0.5
-                w2 = -fp1 * fr * fm2 * 0.5
-                w3 = fp1 * fr * fm1 / 6.0
+                b0, w0, w1, w2, w3 = lagrange4(q)
                 spread = xk * inv4pi / r
                 for b in range(n_bands):
                     amp = gain[b, i] * spread

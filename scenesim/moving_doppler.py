@@ -25,8 +25,10 @@ filter: its fine structure does not follow the talker (its level and decay, thos
 diffuse field, do not depend on the position), and being time-invariant it adds no
 sidebands.  A source that does not move therefore gives ``x * h`` with ``h`` the static
 room RIR, to rounding: early (static scatter, an LTI filter) + late (= RIR - the same early
-filter).  Cost: ~n_samples x n_early_images x n_mics compiled steps (1-2 s for 5 s of signal,
-80 ms mixing time, ~1000 images, two mics).
+filter).  Cost: ~n_samples x n_early_images x n_mics compiled steps -- measured 17-33 s for
+2.8 s of signal in a 6 x 5 x 3 m room (80 ms mixing time, two mics) on the shared 2-core machine
+at load 15, against 2-7 s for the 50 ms blocks (``benchmarks/perf/rooms_check.py``); a shorter
+``mixing_time_s`` trades the late reflections' motion for speed (cost ~ mixing_time^3).
 """
 
 from __future__ import annotations
