@@ -128,7 +128,7 @@ def warm_up() -> None:
     )
     scatter_omni(z + 1.0, np.ones(1), z, np.ones(1), np.ones(1, np.int64), np.zeros((1, 16)), 1.0, 4.0, 8.0)
     one = np.ones(1)
-    scattered_steps(one * 0.5, one, one, one * 0.1, one, np.ones(3), np.zeros(3))  # every scattered room
+    scattered_steps(one * 0.5, one, one, one * 0.1, one, one * 0.9, one, np.zeros(3))  # every scattered room
     scatter_moving(one, np.zeros((1, 3)), 1.0, np.ones((1, 3)), np.ones((1, 3)), g, np.zeros((1, 3)),
                    np.zeros(1), np.zeros((1, 1, 64)), 1, 1.0, 8.0, 40.0)  # moving sources
 
@@ -184,24 +184,32 @@ def scatter_moving(x, path, hop, base, sign, gain, mics, air_np, grid, u, scale,
 
 
 @numba.njit(cache=True, nogil=True)
-def scattered_steps(decay, gain_prev, gain_now, inject, w, source, out):  # pragma: no cover - compiled
+def scattered_steps(decay, gain_prev, gain_now, inject, w, src_decay, src_coef, out):  # pragma: no cover
     """Step the scattered-energy balance of :mod:`scenesim.scattering` (its ``_integrate``).
 
     Per direction u: ``e_u <- decay_u e_u + gain_prev_u f_{k-1} + gain_now_u f_k`` with
-    ``f_k = source_k + inject . e(k)`` solved per step; ``out[k] = w . e(k)`` (``out[0] = 0``).
+    ``f_k = source_k + inject . e(k)`` solved per step, ``source_k = sum_v src_coef_v
+    src_decay_v^k``; ``out[k] = w . e(k)`` (``out[0] = 0``).  Compiled.
     """
     n_dir = decay.shape[0]
     e = np.zeros(n_dir)
+    s = src_coef.copy()
     implicit = 0.0
     for u in range(n_dir):
         implicit += inject[u] * gain_now[u]
-    f_prev = source[0]
-    for k in range(1, source.shape[0]):
+    f_prev = 0.0
+    for v in range(s.shape[0]):
+        f_prev += s[v]
+    for k in range(1, out.shape[0]):
+        source_k = 0.0
+        for v in range(s.shape[0]):
+            s[v] *= src_decay[v]
+            source_k += s[v]
         part = 0.0
         for u in range(n_dir):
             e[u] = decay[u] * e[u] + gain_prev[u] * f_prev
             part += inject[u] * e[u]
-        f = (source[k] + part) / (1.0 - implicit)
+        f = (source_k + part) / (1.0 - implicit)
         m = 0.0
         for u in range(n_dir):
             e[u] += gain_now[u] * f

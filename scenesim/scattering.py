@@ -79,11 +79,12 @@ _STEP_S = 0.0005  # time step of the energy balance (s); the envelope is smooth 
 _N_DIR = 12  # Gauss-Legendre nodes per angle on the octant (144 directions)
 
 
-def _integrate(mu, inject, lambert, source, w) -> np.ndarray:
+def _integrate(mu, inject, lambert, w, src_mu, src_coef, n_points: int) -> np.ndarray:
     """Mean scattered energy at every step of ``de/dt = -mu e + lambert (inject . e + source(t))``.
 
     ``mu``, ``inject`` (already times the quadrature weights ``w``), ``lambert``, ``w`` (n_dir,);
-    ``source`` (n_steps + 1,) at the step times, linear in between.  With ``f = inject . e +
+    ``source(t) = sum_u src_coef_u exp(-src_mu_u t)`` (the specular field's scattered power),
+    taken at the ``n_points`` step times and linear in between.  With ``f = inject . e +
     source`` linear over a step of length h, each direction's update is exact:
     ``e_k = e^{-a} e_{k-1} + lambert h (e^{-a} R(a) f_{k-1} + L(a) f_k)``, ``a = mu h``,
     ``R = (e^a - 1 - a) / a^2``, ``L = (e^{-a} - 1 + a) / a^2`` (product integration with linear
@@ -99,9 +100,8 @@ def _integrate(mu, inject, lambert, source, w) -> np.ndarray:
     # e^{-a} R(a) and L(a), by series for small a (cancellation).
     r_shift = np.where(small, 0.5 - a / 3.0, (1.0 - em * (1.0 + a)) / np.maximum(a * a, 1e-300))
     left = np.where(small, 0.5 - a / 6.0, (em - 1.0 + a) / np.maximum(a * a, 1e-300))
-    out = np.zeros(source.size)
-    scattered_steps(em, lambert * h * r_shift, lambert * h * left, inject, w,
-                    np.ascontiguousarray(source, dtype=float), out)
+    out = np.zeros(n_points)
+    scattered_steps(em, lambert * h * r_shift, lambert * h * left, inject, w, np.exp(-src_mu * h), src_coef, out)
     return out
 
 
@@ -157,9 +157,8 @@ def scattered_energy(dims_m, reflection, scattering, n_taps: int, *, fs: int, c:
     times = t0_s + np.arange(n_steps + 1) * _STEP_S
     out = np.zeros((mu.shape[0], n_steps + 1))
     for b in range(mu.shape[0]):
-        # Scattered power from the specular field at the step times (closed form per direction).
-        source = (level * np.exp(-np.outer(times - t0_s, mu_s[b])) * inj_s[b]) @ w
-        out[b] = _integrate(mu[b], inj_d[b] * w, lambert, source, w)
+        # Scattered power from the specular field: closed form per direction, stepped in the kernel.
+        out[b] = _integrate(mu[b], inj_d[b] * w, lambert, w, mu_s[b], level * inj_s[b] * w, times.size)
     t_tap = np.arange(n_taps) / fs
     t_tap = np.arange(n_taps) / fs
     res = np.zeros((mu.shape[0], n_taps))
