@@ -159,9 +159,12 @@ def level_correction(early: np.ndarray, envelope2: np.ndarray, lo: int, hi: int)
 
 
 def diffuse_tail(
-    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None
+    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None, noise=None
 ) -> np.ndarray:
     """Stochastic tail ``(n_bands, n_mics, n_taps)``: coherent noise x sqrt(expected energy).
+
+    ``noise`` ``(n_mics, n_taps)``: a :func:`coherent_noise` realisation to use instead of drawing
+    one from ``rng``.
 
     With ``early`` (n_bands, n_mics, n_early) and ``window = (lo, hi)`` the level of each band
     is matched to the early ISM's energy in those taps (:func:`level_correction`); the decay
@@ -172,7 +175,8 @@ def diffuse_tail(
     t_grid = np.linspace(1.0 / fs, n_taps / fs, _N_TIME)
     e = expected_energy(room.dims_m, reflection, t_grid, fs=fs, c=c, pattern=pattern, max_order=max_order)
     t = np.arange(n_taps) / fs
-    noise = coherent_noise(mics_m, n_taps, fs=fs, c=c, rng=rng)
+    if noise is None:
+        noise = coherent_noise(mics_m, n_taps, fs=fs, c=c, rng=rng)
     tail = np.empty((n_bands, noise.shape[0], n_taps))
     tiny = np.finfo(float).tiny
     for band in range(n_bands):

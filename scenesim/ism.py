@@ -644,17 +644,20 @@ def image_source_rir(
             raise ParameterError("mixing_time_s", mixing_time_s, "only with method='hybrid'")
         imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec)
         h_bands = _render(imgs, n_taps, fs, c, method, pattern)
-    else:
+    scattered = room.scattering is not None and max_order != 0  # order 0: the direct path only
+    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1)) if scattered else None
+    if method == "hybrid":
         h_bands = _hybrid(
-            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed
+            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, noise
         )
-    if room.scattering is not None and max_order != 0:  # order 0: the direct path, nothing scattered
+    if scattered:
         from scenesim.scattering import scattered_tail
 
         t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+        n_taps = h_bands.shape[-1]
         h_bands = h_bands + scattered_tail(
-            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=h_bands.shape[-1], fs=fs, c=c,
-            t0_s=t0, rng=tail_rng(room, src, mics, seed, salt=1),
+            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
+            t0_s=t0, rng=None, noise=noise(n_taps),
         )
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
@@ -674,7 +677,26 @@ def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
-def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed):
+class _ScatteredNoise:
+    """The scattered tail's coherent noise of a given length, drawn once.  The hybrid's specular
+    tail reuses it circularly shifted by half its length (white noise: independent samples,
+    the same inter-mic coherence), which saves one draw and keeps the scattered part -- and so
+    the early taps -- identical to the full model's."""
+
+    def __init__(self, mics, fs, c, rng):
+        self._args, self._rng, self._made = (mics, fs, c), rng, {}
+
+    def __call__(self, n_taps: int) -> np.ndarray:
+        from scenesim.hybrid import coherent_noise
+
+        if n_taps not in self._made:
+            mics, fs, c = self._args
+            self._made[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
+        return self._made[n_taps]
+
+
+def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed,
+            scattered_noise=None):
     """Early images (full-ISM identical up to the mixing time) + a coherent stochastic tail."""
     from scenesim.hybrid import crossfade, diffuse_tail
 
@@ -699,9 +721,10 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
     lo = max(n_mix // 2, math.ceil((direct + 0.01) * fs))
     window = (lo, n_mix) if n_mix - lo >= 0.005 * fs else None
+    shared = None if scattered_noise is None else np.roll(scattered_noise(n_taps), n_taps // 2, axis=-1)
     tail = diffuse_tail(
         room, mics, n_taps=n_taps, fs=fs, c=c, reflection=refl, pattern=pattern,
-        max_order=max_order, rng=rng, early=early, window=window,
+        max_order=max_order, rng=rng, early=early, window=window, noise=shared,
     )
     return crossfade(early, tail, n_mix, SINC_HALF_WIDTH)
 
