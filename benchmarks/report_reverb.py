@@ -46,7 +46,8 @@ from benchmarks.report_tables import (  # noqa: E402
 REVERB_FIELDS = ("sinr_i_db", "snr_i_db", "sinr_in_db", "sinr_out_db", "drr_in_db", "drr_out_db", "drr_gain_db",
                  "c50_in_db", "c50_out_db", "c50_gain_db", "srmr_in", "srmr_out", "pesq_nb_raw_out", "stoi_out")  # fmt: skip
 ACOUSTIC_FIELDS = ("t30_s", "edt_s", "drr_rir_db", "drr_rir_target_db", "c50_rir_db", "c50_rir_target_db",
-                   "critical_distance_m")  # fmt: skip
+                   "critical_distance_m", "t_speech_s", "edt_speech_s", "t_mid_s", "edt_mid_s", "d50_rir",
+                   "d50_rir_target", "drr_win_rir_db", "drr_win_rir_target_db")  # fmt: skip
 _TABLE_FIELDS = (("sinr_i_db", "SINR-I dB"), ("snr_i_db", "SNR-I (noise only) dB"), ("drr_gain_db", "DRR gain dB"),
                  ("c50_gain_db", "C50 gain dB"), ("srmr_in", "SRMR in"), ("srmr_out", "SRMR out"),
                  ("pesq_nb_raw_out", "PESQ out (raw)"), ("stoi_out", "STOI out"))  # fmt: skip
@@ -184,11 +185,14 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
 
 def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(4.8, 4.2))
-    recs = [r for r in acoustics if num(r.get("rt60_s")) and r.get("t30_s") is not None]
+    # The speech-octave means (what the target is) when the rows have them, else broadband.
+    t_key, e_key = ("t_speech_s", "edt_speech_s") if any(r.get("t_speech_s") is not None for r in acoustics) \
+        else ("t30_s", "edt_s")
+    recs = [r for r in acoustics if num(r.get("rt60_s")) and r.get(t_key) is not None]
     xs = [r["rt60_s"] for r in recs]
-    for f, marker, label in (("t30_s", "o", "T30 (achieved)"), ("edt_s", "s", "EDT (achieved)")):
+    for f, marker, label in ((t_key, "o", "T30 (achieved)"), (e_key, "s", "EDT (achieved)")):
         ax.errorbar(xs, [r.get(f) for r in recs], yerr=error_bars(recs, f), fmt=marker, capsize=2, label=label)
-    hi = max([*xs, *(r.get("t30_s") or 0 for r in recs), *(r.get("edt_s") or 0 for r in recs), 0.1]) * 1.1
+    hi = max([*xs, *(r.get(t_key) or 0 for r in recs), *(r.get(e_key) or 0 for r in recs), 0.1]) * 1.1
     ax.plot([0, hi], [0, hi], "k--", lw=0.8, label="target")
     ax.set(xlabel="target RT60 (s)", ylabel="achieved at the reference mic (s)", xlim=(0, hi), ylim=(0, hi))
     ax.grid(True, alpha=0.3)
@@ -199,15 +203,25 @@ def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     return save_figure(fig, path)
 
 
+_ACOUSTIC_PAIRS = (("t_speech_s", "rt60_target_s", "T30 500-2k s"), ("edt_speech_s", "rt60_target_s", "EDT 500-2k s"),
+                   ("t_mid_s", "rt60_target_s", "T_mid s"), ("c50_rir_db", "c50_rir_target_db", "C50 dB"),
+                   ("d50_rir", "d50_rir_target", "D50"), ("drr_win_rir_db", "drr_win_rir_target_db", "DRR +-2.5 ms dB"),
+                   ("drr_rir_db", "drr_rir_target_db", "DRR exact-image dB"))  # fmt: skip
+
+
 def _acoustics_table(acoustics: Sequence[dict], keys: Sequence[tuple[str, str]]) -> str:
-    header = [*(lab for _, lab in keys), "n", "T30 s", "EDT s", "DRR dB (achieved)", "DRR dB (Sabine)",
-              "C50 dB (achieved)", "C50 dB (Sabine)", "r_c m"]  # fmt: skip
+    """ISO 3382 quantities, each as ``achieved / target`` of the same quantity (Sabine diffuse field)."""
+    header = [*(lab for _, lab in keys), "n", *(f"{lab} (achieved / target)" for *_, lab in _ACOUSTIC_PAIRS),
+              "T30 broadband s", "r_c m"]  # fmt: skip
     body = []
     for r in acoustics:
-        body.append([*(f"{r[k]:g}" for k, _ in keys), str(r["n"]),
-                     *(fmt(r.get(f), 2, r.get(f + "_ci95")) for f in ("t30_s", "edt_s", "drr_rir_db")),
-                     fmt(r.get("drr_rir_target_db")), fmt(r.get("c50_rir_db"), 2, r.get("c50_rir_db_ci95")),
-                     fmt(r.get("c50_rir_target_db")), fmt(r.get("critical_distance_m"))])  # fmt: skip
+        target = r.get("rt60_s")
+        cells = []
+        for got, want, _ in _ACOUSTIC_PAIRS:
+            w = target if want == "rt60_target_s" else r.get(want)
+            cells.append(f"{stat_cell(r, got, 2)} / {fmt(w)}")
+        body.append([*(f"{r[k]:g}" for k, _ in keys), str(r["n"]), *cells,
+                     stat_cell(r, "t30_s", 2), fmt(r.get("critical_distance_m"))])  # fmt: skip
     return markdown_table(header, body)
 
 
@@ -232,9 +246,11 @@ def rt60_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str], lis
              f"### SINR-I, DRR/C50 gain, SRMR vs RT60 ({target})", "",
              _table(summary, (("rt60_s", "RT60 s"),)), "",
              f"### Room acoustics at the reference mic: target vs achieved ({target})", "",
-             "One RIR per geometry (talker placement and room); T30/EDT by Schroeder integration, DRR with the "
-             "exact order-0 image as direct sound, C50 split 50 ms after the direct arrival; Sabine's "
-             "diffuse-field values at the talker's distance beside them.", "",
+             "One RIR per geometry (talker placement and room); ISO 3382-1 parameters (scenesim.iso3382): "
+             "T30/EDT per octave by Schroeder integration from the direct arrival, averaged over 500 Hz-2 kHz "
+             "(the quantity the target RT60 is) and over 500 Hz-1 kHz (T_mid); C50/D50 split 50 ms after the "
+             "direct arrival; DRR with +-2.5 ms around the direct peak and with the exact order-0 image. "
+             "Each beside the same quantity of Sabine's diffuse field at the talker's distance.", "",
              _acoustics_table(acoustics, (("rt60_s", "target RT60 s"),)), ""]  # fmt: skip
     return lines, paths
 

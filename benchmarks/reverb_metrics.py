@@ -60,6 +60,15 @@ ACOUSTICS_COLUMNS: dict[str, str] = {
     "drr_rir_target_db": "REAL",
     "c50_rir_target_db": "REAL",
     "critical_distance_m": "REAL",
+    # ISO 3382-1 (scenesim.iso3382), each beside the same quantity of the diffuse-field target
+    "t_speech_s": "REAL",
+    "edt_speech_s": "REAL",
+    "t_mid_s": "REAL",
+    "edt_mid_s": "REAL",
+    "d50_rir": "REAL",
+    "d50_rir_target": "REAL",
+    "drr_win_rir_db": "REAL",
+    "drr_win_rir_target_db": "REAL",
 }
 
 
@@ -141,19 +150,24 @@ def output_columns(enhancer, result, rendered, parts, *, channels: int, latency:
 def theory_drr_c50_db(distance_m: float, critical_distance_m: float, rt60_s: float, early_window_s: float = 0.05) -> tuple[float, float]:
     """DRR and C50 (dB) of Sabine's diffuse-field theory at ``distance_m``.
 
-    ``D / R = (r_c / r)^2``; the reverberant energy decays as ``exp(-13.82 t / RT60)``, so
-    the share arriving after ``t_e`` is ``q = exp(-13.82 t_e / RT60)`` and
-    ``C = (D + R (1 - q)) / (R q)`` (reverberation taken from the direct arrival on).
+    ``D / R = (r_c / r)^2``; C by :func:`scenesim.iso3382.diffuse_clarity_db` with the early
+    window (reverberation taken from the direct arrival on).
     """
-    dr = (critical_distance_m / distance_m) ** 2
-    q = math.exp(-6.0 * math.log(10.0) * early_window_s / rt60_s)
-    return 10.0 * math.log10(dr), 10.0 * math.log10((dr + 1.0 - q) / q)
+    from scenesim.iso3382 import diffuse_clarity_db
+
+    dr_db = 20.0 * math.log10(critical_distance_m / distance_m)
+    return dr_db, diffuse_clarity_db(distance_m, critical_distance_m, rt60_s, early_window_s)
 
 
 def acoustics_columns(images, parts, *, rt60_target_s: float) -> dict[str, Any]:
-    """Room acoustics of the speech RIR at the reference mic, and their targets (None in free field)."""
+    """Room acoustics of the speech RIR at the reference mic, and their targets (None in free field).
+
+    ``t_speech_s`` (500 Hz-2 kHz octave T30 mean) is the quantity the calibration fits, so it
+    is the one to set beside ``rt60_target_s``; ``t30_s`` / ``edt_s`` stay the broadband values.
+    """
     from scenesim.cache import cached_rir
-    from scenesim.reverb_parts import critical_distance_m, rir_acoustics
+    from scenesim.iso3382 import diffuse_field_parameters, room_parameters
+    from scenesim.reverb_parts import rir_acoustics
 
     out: dict[str, Any] = dict.fromkeys(ACOUSTICS_COLUMNS)
     scene = images.scene
@@ -164,12 +178,17 @@ def acoustics_columns(images, parts, *, rt60_target_s: float) -> dict[str, Any]:
     hd = cached_rir(scene.room, pos, scene.pair.positions_m[:1], fs=scene.fs, max_order=0)[0]
     got = rir_acoustics(h, hd, fs=scene.fs, cut_sample=parts.cut_sample)
     out.update(t30_s=got["t30_s"], edt_s=got["edt_s"], drr_rir_db=got["drr_db"], c50_rir_db=got["c50_db"])
-    volume = float(np.prod(scene.room.dims_m))
-    rc = critical_distance_m(volume, rt60_target_s)
+    iso = room_parameters(h, scene.fs, h_direct=hd, centers_hz=(500.0, 1000.0, 2000.0))
+    for key in ("t_speech_s", "edt_speech_s", "t_mid_s", "edt_mid_s"):
+        out[key] = None if math.isnan(iso[key]) else iso[key]
+    out["d50_rir"], out["drr_win_rir_db"] = iso["d50"], iso["drr_windowed_db"]
     r0 = float(np.linalg.norm(np.asarray(scene.pair.positions_m[0]) - pos))
+    want = diffuse_field_parameters(rt60_target_s, r0, float(np.prod(scene.room.dims_m)))
     out["rt60_target_s"] = rt60_target_s
-    out["critical_distance_m"] = rc
-    out["drr_rir_target_db"], out["c50_rir_target_db"] = theory_drr_c50_db(r0, rc, rt60_target_s, parts.early_window_s)
+    out["critical_distance_m"] = want["critical_distance_m"]
+    out["drr_rir_target_db"], out["c50_rir_target_db"] = theory_drr_c50_db(
+        r0, want["critical_distance_m"], rt60_target_s, parts.early_window_s)
+    out["d50_rir_target"], out["drr_win_rir_target_db"] = want["d50"], want["drr_windowed_db"]
     return out
 
 

@@ -143,7 +143,11 @@ def build_scene(cond: Condition):
         thesis_model = ThesisFarField(fd_taps=cond.fd_taps, fd_window=cond.fd_window, azimuth_from=cond.azimuth_from)
     room = None
     if cond.room_dims_m is not None:
-        room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method)
+        from scenesim.scattering import DEFAULT_SCATTERING
+
+        # Calibrated rooms are furnished rooms: diffuse wall scattering, fitted with it (issue 18).
+        scattering = DEFAULT_SCATTERING if cond.rt60_method == "calibrated" else None
+        room = ShoeBox(cond.room_dims_m, rt60_s=cond.rt60_s, rt60_method=cond.rt60_method, scattering=scattering)
     placed = {}  # fields have no place: keep NoiseSource's defaults
     if cond.noise_az_deg is not None:
         placed["azimuth_deg"] = cond.noise_az_deg

@@ -24,7 +24,7 @@ from scenesim.memo import (  # noqa: F401  (re-exported: the public names of thi
     stable_hash,
 )
 
-CACHE_FORMAT = "scenesim-rir-v2"  # v2: room_rir (20 Hz high-pass by default, bands, air)
+CACHE_FORMAT = "scenesim-rir-v3"  # v2: room_rir (20 Hz high-pass, bands, air); v3: scattering (issue 18)
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
 

@@ -23,6 +23,11 @@ alpha in (0, 1) and the profile's shape.  ``s`` starts from Eyring, then follows
 band.  Results are memoised with :func:`scenesim.cache.cached_array` (memory, and disk when
 ``$SCENESIM_CACHE`` is set).
 
+Diffuse reflections: the loop renders with the room's wall scattering (default
+:data:`scenesim.scattering.DEFAULT_SCATTERING`, 0.5), so the fitted absorption is the one
+that gives the target *with* the scattered field; without it the loop reached T30 by
+over-absorbing non-diffuse rooms, whose EDT then fell 29-60 % short (issue 18).
+
 The check of the result must not be the loop's own measurement at the loop's own placements:
 ``tests/test_calibration.py`` measures other placements with pyroomacoustics'
 ``experimental.measure_rt60`` on differently filtered octaves: the speech-octave mean is within
@@ -50,6 +55,7 @@ from scenesim.cache import array_key, cached_array
 from scenesim.errors import ParameterError
 from scenesim.room import ShoeBox, register_calibrator
 from scenesim.rt60 import measure_rt60, sabine_absorption, wall_areas
+from scenesim.scattering import DEFAULT_SCATTERING
 from scenesim.validate import check_fs, check_positive
 
 CALIBRATION_PLACEMENTS = (
@@ -66,7 +72,7 @@ CALIBRATION_MAX_ITER = 12
 CALIBRATION_LENGTH_FACTOR = 1.1
 """RIR length during calibration: this x the target plus the longest direct path (the T30
 fit ends at -35 dB, about 0.6 x RT60; the tail cut at -66 dB shifts it by < 0.1 %)."""
-CALIBRATION_VERSION = 2
+CALIBRATION_VERSION = 3  # 3: fitted with diffuse (scattered) reflections on
 """Bumped when the loop's result changes (invalidates memoised absorptions)."""
 
 
@@ -81,7 +87,7 @@ def _render(room: ShoeBox, fs: int, length_s: float) -> list[np.ndarray]:
     from scenesim.render import room_rir  # render imports ism; kept out of import time
 
     flat = ShoeBox(room.dims_m, room.absorption, c=room.c, min_wall_distance_m=0.0,
-                   bands_hz=room.bands_hz, air=room.air)
+                   bands_hz=room.bands_hz, air=room.air, scattering=room.scattering)
     out = []
     for k in range(len(CALIBRATION_PLACEMENTS)):
         src, mic = default_calibration_positions(room.dims_m, k)
@@ -137,28 +143,28 @@ def _start_scale(dims, x_profile: np.ndarray, target: float, c: float) -> float:
     return 24.0 * math.log(10.0) * float(np.prod(dims)) / (c * float(np.sum(areas)) * target) / x_mean
 
 
-def _measure_flat(dims, x_profile, s, *, air, c, fs, length_s, max_x, target) -> float:
+def _measure_flat(dims, x_profile, s, *, air, c, fs, length_s, max_x, target, scattering) -> float:
     if s * max_x > 30.0:  # alpha = 1 - exp(-30): as dead as a wall can be
         raise ParameterError("rt60_s", target, "an RT60 this room can reach (calibration needs absorption > 1)")
-    room = ShoeBox(dims, tuple(_scaled(x_profile, s)), c=c, air=air)
+    room = ShoeBox(dims, tuple(_scaled(x_profile, s)), c=c, air=air, scattering=scattering)
     return float(np.mean([speech_rt60(h, fs) for h in _render(room, fs, length_s)]))
 
 
-def _measure_band(dims, x_col, s, *, center, air, c, fs, length_s, target) -> float:
+def _measure_band(dims, x_col, s, *, center, air, c, fs, length_s, target, scattering) -> float:
     """Octave T30 at ``center`` of the band's own RIR (that band's walls and air), mean over placements."""
     if s * float(np.max(x_col)) > 30.0:
         raise ParameterError("rt60_s", target, "an RT60 this room can reach (calibration needs absorption > 1)")
-    room = ShoeBox(dims, tuple(_scaled(x_col, s)), c=c, air=air)
+    room = ShoeBox(dims, tuple(_scaled(x_col, s)), c=c, air=air, scattering=scattering)
     # A one-band flat room with air is split into the default octaves; rendering it with
     # bands_hz=(center,) keeps only this band's air coefficient.
     if air is not None:
-        room = ShoeBox(dims, _scaled(x_col, s)[:, None], c=c, air=air, bands_hz=(center,))
+        room = ShoeBox(dims, _scaled(x_col, s)[:, None], c=c, air=air, bands_hz=(center,), scattering=scattering)
     rirs = _render(room, fs, length_s)
     return float(np.mean([measure_rt60(octave_filter(h, fs, center), fs, method="T30") for h in rirs]))
 
 
 def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, c: float = 343.0,
-                         fs: int = CALIBRATION_FS) -> np.ndarray:
+                         fs: int = CALIBRATION_FS, scattering=DEFAULT_SCATTERING) -> np.ndarray:
     """The calibrated absorption ``(6,)`` or ``(6, n_bands)`` (see the module docstring; memoised).
 
     Parameters as :func:`calibrate_room`.  Raises :class:`ParameterError` (name ``rt60_s``)
@@ -180,16 +186,25 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
         raise ParameterError("rt60_s", rt60_s, allowed)
     for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
         sabine_absorption(float(t), dims, c=c)
+    scat = ShoeBox(dims, 0.5, bands_hz=bands, scattering=scattering).scattering  # validated
     key = array_key("room-calibration", CALIBRATION_VERSION, dims=dims, rt60_s=target.tolist(), profile=profile,
-                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS)
-    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs))
+                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS, scattering=scat)
+    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs, scat))
 
 
-def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs) -> np.ndarray:
+def _band_scattering(scattering, bands, b):
+    """The scattering of band ``b``'s one-band room (per wall)."""
+    if scattering is None:
+        return None
+    return tuple(ShoeBox((1, 1, 1), 0.5, bands_hz=bands, scattering=scattering).scattering_table(b))
+
+
+def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs, scattering) -> np.ndarray:
     x = -np.log1p(-np.minimum(profile, 1.0 - 1e-12))
     if bands is None:
         t = float(target)
-        kw = dict(air=air, c=c, fs=fs, length_s=_length_s(dims, t, c), max_x=float(np.max(x)), target=t)
+        kw = dict(air=air, c=c, fs=fs, length_s=_length_s(dims, t, c), max_x=float(np.max(x)), target=t,
+                  scattering=scattering)
         s = _solve_scale(lambda v: _measure_flat(dims, x, v, **kw), t, _start_scale(dims, x, t, c), "")
         return _scaled(x, s)
     if target.ndim == 0:  # one scale for the whole table, measured in the speech octaves
@@ -202,7 +217,8 @@ def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs)
         def measure(v: float) -> float:
             return float(np.mean([
                 _measure_band(dims, x[:, b], v, center=bands[b], air=air, c=c, fs=fs,
-                              length_s=_length_s(dims, t, c), target=t) for b in speech
+                              length_s=_length_s(dims, t, c), target=t,
+                              scattering=_band_scattering(scattering, bands, b)) for b in speech
             ]))
 
         x_speech = np.mean(x[:, speech], axis=1)
@@ -217,7 +233,8 @@ def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs)
             out[:, b] = _scaled(x[:, b], 1.0 if s is None else s)
             continue
         t = float(target[b])
-        kw = dict(center=center, air=air, c=c, fs=fs, length_s=_length_s(dims, t, c), target=t)
+        kw = dict(center=center, air=air, c=c, fs=fs, length_s=_length_s(dims, t, c), target=t,
+                  scattering=_band_scattering(scattering, bands, b))
         s = _solve_scale(lambda v, kw=kw, b=b: _measure_band(dims, x[:, b], v, **kw), t,
                          _start_scale(dims, x[:, b], t, c), f" in the {center:g} Hz band")
         out[:, b] = _scaled(x[:, b], s)
@@ -225,7 +242,8 @@ def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs)
 
 
 def calibrate_room(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, c: float = 343.0,
-                   fs: int = CALIBRATION_FS, min_wall_distance_m: float = 0.1) -> ShoeBox:
+                   fs: int = CALIBRATION_FS, min_wall_distance_m: float = 0.1,
+                   scattering=DEFAULT_SCATTERING) -> ShoeBox:
     """A room whose rendered RIRs have the requested reverberation time (closed loop).
 
     Parameters
@@ -247,6 +265,10 @@ def calibrate_room(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, 
         Sampling rate in Hz of the RIRs measured (bands above ``fs / 2`` keep their profile).
     min_wall_distance_m : float
         Passed to the returned room.
+    scattering : float, (6,), (n_bands,) or (6, n_bands), optional
+        Wall scattering coefficients the fit renders with and the returned room keeps
+        (:mod:`scenesim.scattering`); default :data:`scenesim.scattering.DEFAULT_SCATTERING`
+        (0.5, a furnished room); None or 0 for the purely specular ISM.
 
     Returns
     -------
@@ -259,15 +281,19 @@ def calibrate_room(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, 
     >>> round(room.target_rt60_s, 2), room.wall_absorption.shape
     (0.4, (6,))
     """
-    alpha = calibrate_absorption(dims_m, rt60_s, absorption=absorption, bands_hz=bands_hz, air=air, c=c, fs=fs)
+    alpha = calibrate_absorption(dims_m, rt60_s, absorption=absorption, bands_hz=bands_hz, air=air, c=c, fs=fs,
+                                 scattering=scattering)
     target = np.asarray(rt60_s, dtype=float)
     stored = tuple(float(v) for v in alpha) if alpha.ndim == 1 else alpha
     return ShoeBox(dims_m, stored, bands_hz=bands_hz, air=air, c=c, min_wall_distance_m=min_wall_distance_m,
-                   target_rt60_s=float(target) if target.ndim == 0 else tuple(target))
+                   target_rt60_s=float(target) if target.ndim == 0 else tuple(target), scattering=scattering)
 
 
-def _compat_calibrator(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, c=343.0) -> np.ndarray:
-    return calibrate_absorption(dims_m, rt60_s, absorption=absorption, bands_hz=bands_hz, air=air, c=c)
+def _compat_calibrator(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, c=343.0,
+                       scattering=None) -> np.ndarray:
+    # ShoeBox(rt60_method="calibrated") fits the room it is: with its own scattering (None: specular).
+    return calibrate_absorption(dims_m, rt60_s, absorption=absorption, bands_hz=bands_hz, air=air, c=c,
+                                scattering=scattering)
 
 
 register_calibrator(_compat_calibrator)

@@ -20,6 +20,19 @@ the tail match the full ISM, which Sabine or Eyring would not (the issue's calib
 The direction average uses Gauss-Legendre nodes on one octant (the exponential is
 octant-symmetric; D^2 is averaged over the 8 mirrors).
 
+Scattered rooms (``ShoeBox(scattering=...)``, the default of calibrated rooms): the specular
+images carry ``sqrt((1 - alpha)(1 - s))`` and the scattered field of :mod:`scenesim.scattering`
+is added to the hybrid exactly as to the full model, from the room's own energy balance per
+band (air applied per band afterwards, as for the full model).  Its late energy dominates,
+so the hybrid's per-octave T30 (125 Hz-4 kHz) is within 0.7 % of the full model's in a
+corridor and in a banded room with air (``tests/test_hybrid_scattered.py``,
+``benchmarks/perf/rooms_check.py``), and the late field is diffuse, so the sinc coherence
+below is the right one (tested at 250 Hz-4 kHz).  Where it is not: a purely specular room
+(``scattering=None``) that is not diffuse -- a corridor, one absorptive wall -- keeps
+direction-dependent decays the Gaussian tail only approximates (specular 14 x 2.2 x 2.8 m
+corridor: hybrid/full octave T30 0.66 at 125 Hz .. 1.04 at 4 kHz) and a lateral/axial field
+whose coherence is not the diffuse one; use ``method="fast"`` or scattering there.
+
 Coherence: white noise per mic is mixed per frequency by a square root of the diffuse
 coherence matrix ``Gamma_ij(f) = sinc(2 f d_ij / c)`` (Habets & Gannot 2007 style), then every
 mic is multiplied by the same envelope, which keeps the coherence up to the envelope's slow
@@ -41,11 +54,11 @@ _N_TIME = 96  # envelope evaluated on this many times and interpolated in log en
 _B_MIN = 0.1  # wall reflections below this (alpha > 0.99) enter the envelope as 0.1, see below
 
 
-@functools.lru_cache(maxsize=1)
-def _octant_directions():
+@functools.lru_cache(maxsize=4)
+def _octant_directions(n_mu: int = _N_MU, n_phi: int = _N_PHI):
     """Unit vectors (n, 3) in the first octant and quadrature weights (n,) summing to 1."""
-    x_mu, w_mu = np.polynomial.legendre.leggauss(_N_MU)
-    x_phi, w_phi = np.polynomial.legendre.leggauss(_N_PHI)
+    x_mu, w_mu = np.polynomial.legendre.leggauss(n_mu)
+    x_phi, w_phi = np.polynomial.legendre.leggauss(n_phi)
     mu = 0.5 * (x_mu + 1.0)
     phi = 0.25 * np.pi * (x_phi + 1.0)
     mu, phi = np.meshgrid(mu, phi, indexing="ij")
@@ -146,9 +159,12 @@ def level_correction(early: np.ndarray, envelope2: np.ndarray, lo: int, hi: int)
 
 
 def diffuse_tail(
-    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None
+    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None, noise=None
 ) -> np.ndarray:
     """Stochastic tail ``(n_bands, n_mics, n_taps)``: coherent noise x sqrt(expected energy).
+
+    ``noise`` ``(n_mics, n_taps)``: a :func:`coherent_noise` realisation to use instead of drawing
+    one from ``rng``.
 
     With ``early`` (n_bands, n_mics, n_early) and ``window = (lo, hi)`` the level of each band
     is matched to the early ISM's energy in those taps (:func:`level_correction`); the decay
@@ -159,7 +175,8 @@ def diffuse_tail(
     t_grid = np.linspace(1.0 / fs, n_taps / fs, _N_TIME)
     e = expected_energy(room.dims_m, reflection, t_grid, fs=fs, c=c, pattern=pattern, max_order=max_order)
     t = np.arange(n_taps) / fs
-    noise = coherent_noise(mics_m, n_taps, fs=fs, c=c, rng=rng)
+    if noise is None:
+        noise = coherent_noise(mics_m, n_taps, fs=fs, c=c, rng=rng)
     tail = np.empty((n_bands, noise.shape[0], n_taps))
     tiny = np.finfo(float).tiny
     for band in range(n_bands):

@@ -290,7 +290,7 @@ def _render_exact(imgs: _Images, n_taps: int, fs, c, pattern=None) -> np.ndarray
 
 
 @functools.lru_cache(maxsize=32)
-def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
+def _polyphase_kernel_fft(u: int, n_fft: int, double: bool = False) -> np.ndarray:
     """FFTs ``(u, n_fft // 2 + 1)`` of the windowed-sinc kernel's polyphase branches.
 
     With ``X_j[k] = grid[k u + j]`` the decimated filter output
@@ -307,7 +307,8 @@ def _polyphase_kernel_fft(u: int, n_fft: int) -> np.ndarray:
     hp[0] = poly[0]
     for j in range(1, u):
         hp[j, 1:] = poly[u - j, :-1]
-    spec = sfft.rfft(hp, n_fft, axis=-1).astype(np.complex64)
+    spec = sfft.rfft(hp, n_fft, axis=-1)
+    spec = spec if double else spec.astype(np.complex64)
     spec.flags.writeable = False  # cached and shared between calls
     return spec
 
@@ -367,21 +368,33 @@ def _render_fast(imgs: _Images, n_taps: int, fs, c, pattern=None, oversampling: 
             imgs.counts, np.ascontiguousarray(axis, dtype=float),
             np.ascontiguousarray(coef, dtype=float), grid, scale, float(g0), q_max,
         )
-    n_fft = sfft.next_fast_len(n_blocks + 2 * half + 2, real=True)
-    kernel = _polyphase_kernel_fft(u, n_fft)
-    start = 2 * half + 1  # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1)
     out = np.empty((n_bands, n_mics, n_taps))
     for band in range(n_bands):  # one band at a time keeps the FFT buffers small
-        # x[m, j, k] = grid[k u + j], zero-padded to n_fft, C-contiguous along k (pocketfft is
-        # ~20x slower on a strided axis), float32: the FFT error (~1e-7 of the peak, absolute)
-        # is far below the interpolation error.
-        x = _workspace("x", (n_mics, u, n_fft), np.float32)
-        x[:, :, :n_blocks] = grid[band].reshape(n_mics, n_blocks, u).transpose(0, 2, 1)
-        spec = sfft.rfft(x, axis=-1)
-        spec *= kernel
-        y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
-        out[band] = y[:, start : start + n_taps]
+        out[band] = decimate_grid(grid[band], n_taps, u)
     return out
+
+
+def decimate_grid(grid: np.ndarray, n_taps: int, u: int, *, dtype=np.float32) -> np.ndarray:
+    """Filter a scatter grid ``(n_mics, n_fine)`` by the windowed sinc at the fine rate and decimate by ``u``.
+
+    ``n_fine = (2 (SINC_HALF_WIDTH + 1) + n_taps) u``; fine index ``(SINC_HALF_WIDTH + 1) u``
+    is t = 0.  Returns ``(n_mics, n_taps)``.  ``dtype`` of the FFT stage: float32 (error ~1e-7
+    of the peak, below the fast renderer's interpolation error) or float64.
+    """
+    half = SINC_HALF_WIDTH
+    n_mics = grid.shape[0]
+    n_blocks = grid.shape[1] // u
+    n_fft = sfft.next_fast_len(n_blocks + 2 * half + 2, real=True)
+    kernel = _polyphase_kernel_fft(u, n_fft, dtype != np.float32)
+    start = 2 * half + 1  # y[n] = sum_images a h(n - (half + 1) - half - D): tap t = n - (2 half + 1)
+    # x[m, j, k] = grid[k u + j], zero-padded to n_fft, C-contiguous along k (pocketfft is
+    # ~20x slower on a strided axis).
+    x = _workspace("x", (n_mics, u, n_fft), dtype)
+    x[:, :, :n_blocks] = grid.reshape(n_mics, n_blocks, u).transpose(0, 2, 1)
+    spec = sfft.rfft(x, axis=-1)
+    spec *= kernel
+    y = sfft.irfft(spec.sum(axis=1), n_fft, axis=-1)
+    return y[:, start : start + n_taps]
 
 
 # --------------------------------------------------------------------------- public
@@ -624,14 +637,27 @@ def image_source_rir(
     bands = _bands_of(directivity, reflection_bands, bands_hz)
     n_bands = len(bands)
     refl = _band_reflection(room, reflection_bands, n_bands)
+    scat = room.scattering_table()
+    spec = refl * np.sqrt(1.0 - scat)  # specular share of every reflection (scenesim.scattering)
     if method != "hybrid":
         if mixing_time_s is not None:
             raise ParameterError("mixing_time_s", mixing_time_s, "only with method='hybrid'")
-        imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl)
+        imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec)
         h_bands = _render(imgs, n_taps, fs, c, method, pattern)
-    else:
+    scattered = room.scattering is not None and max_order != 0  # order 0: the direct path only
+    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1)) if scattered else None
+    if method == "hybrid":
         h_bands = _hybrid(
-            room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed
+            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, noise
+        )
+    if scattered:
+        from scenesim.scattering import scattered_tail
+
+        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+        n_taps = h_bands.shape[-1]
+        h_bands = h_bands + scattered_tail(
+            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
+            t0_s=t0, rng=None, noise=noise(n_taps),
         )
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
@@ -640,7 +666,37 @@ def image_source_rir(
     return h
 
 
-def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed):
+def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
+    """The generator of a stochastic tail: ``seed``, or derived from the geometry when None
+    (positions in micrometres as the entropy; ``salt`` tells two tails of one RIR apart)."""
+    if seed is None:
+        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
+        seed = np.random.SeedSequence([int(w) % 2**63 for w in words] + ([salt] if salt else []))
+    elif salt and not isinstance(seed, np.random.Generator):
+        seed = np.random.SeedSequence([int(seed), salt]) if isinstance(seed, int) else seed
+    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+
+
+class _ScatteredNoise:
+    """The scattered tail's coherent noise of a given length, drawn once.  The hybrid's specular
+    tail reuses it circularly shifted by half its length (white noise: independent samples,
+    the same inter-mic coherence), which saves one draw and keeps the scattered part -- and so
+    the early taps -- identical to the full model's."""
+
+    def __init__(self, mics, fs, c, rng):
+        self._args, self._rng, self._made = (mics, fs, c), rng, {}
+
+    def __call__(self, n_taps: int) -> np.ndarray:
+        from scenesim.hybrid import coherent_noise
+
+        if n_taps not in self._made:
+            mics, fs, c = self._args
+            self._made[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
+        return self._made[n_taps]
+
+
+def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed,
+            scattered_noise=None):
     """Early images (full-ISM identical up to the mixing time) + a coherent stochastic tail."""
     from scenesim.hybrid import crossfade, diffuse_tail
 
@@ -659,18 +715,16 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     early = _render(imgs, n_early, fs, c, "fast", pattern)
     if n_mix >= n_taps:
         return early[..., :n_taps]
-    if seed is None:  # geometry-derived: positions in micrometres as the seed's entropy
-        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
-        seed = np.random.SeedSequence([int(w) % 2**63 for w in words])
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    rng = tail_rng(room, src, mics, seed)
     # Level of the tail matched over [max(t_mix / 2, direct + 10 ms), t_mix): late enough to
     # hold no direct sound, long enough (>= 5 ms) to average many images; else analytic level.
     direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
     lo = max(n_mix // 2, math.ceil((direct + 0.01) * fs))
     window = (lo, n_mix) if n_mix - lo >= 0.005 * fs else None
+    shared = None if scattered_noise is None else np.roll(scattered_noise(n_taps), n_taps // 2, axis=-1)
     tail = diffuse_tail(
         room, mics, n_taps=n_taps, fs=fs, c=c, reflection=refl, pattern=pattern,
-        max_order=max_order, rng=rng, early=early, window=window,
+        max_order=max_order, rng=rng, early=early, window=window, noise=shared,
     )
     return crossfade(early, tail, n_mix, SINC_HALF_WIDTH)
 
@@ -682,6 +736,7 @@ __all__ = [
     "SINC_HALF_WIDTH",
     "DEFAULT_MIXING_TIME_S",
     "MIN_SOURCE_MIC_DISTANCE_M",
+    "decimate_grid",
     "default_length_s",
     "image_count_l1",
     "image_source_rir",

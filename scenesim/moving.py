@@ -1,4 +1,14 @@
-"""A source moving along a path: per-block RIRs, cross-faded on the emitted signal (issue 10).
+"""A source moving along a path (issue 10, 18).
+
+Two renderers:
+
+* ``method="doppler"`` (default): every early image follows the path sample by sample with
+  its own time-varying delay (fractional-delay interpolation per sample, so each image has
+  its Doppler shift), the late reverberation a fixed filter -- no block artefacts
+  (:mod:`scenesim.moving_doppler`, whose docstring gives the method and its limits).
+  Sidebands of a moving 1-4 kHz tone outside its Doppler band: <= -60 dB
+  (``tests/test_moving.py``; the block method below puts them at -20..-26 dB).
+* ``method="blocks"``: per-block RIRs cross-faded on the emitted signal, described below.
 
 The signal is cut into overlapping blocks centred on ``t_k = k * block_s``; block ``k`` is
 weighted by a raised-cosine window ``w_k(t) = cos^2(pi/2 (t - t_k) / block_s)`` for
@@ -24,10 +34,10 @@ import numpy as np
 from scipy import signal as ss
 
 from scenesim.errors import ParameterError
-from scenesim.ism import default_length_s
+from scenesim.ism import DEFAULT_MIXING_TIME_S, default_length_s
 from scenesim.render import DEFAULT_HIGHPASS_HZ, room_rir
 from scenesim.room import ShoeBox
-from scenesim.validate import check_fs, check_positive
+from scenesim.validate import check_choice, check_fs, check_positive
 
 
 def path_positions(path_m, times_s: np.ndarray, *, duration_s: float, waypoint_times_s=None) -> np.ndarray:
@@ -81,7 +91,8 @@ def crossfade_windows(n_samples: int, fs: int, block_s: float) -> tuple[np.ndarr
 def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, mics_m, *, fs: int,
                          block_s: float = 0.05, waypoint_times_s=None, length_s: float | None = None,
                          max_order: int | None = None,
-                         highpass_hz: float | None = DEFAULT_HIGHPASS_HZ) -> np.ndarray:
+                         highpass_hz: float | None = DEFAULT_HIGHPASS_HZ, method: str = "doppler",
+                         mixing_time_s: float = DEFAULT_MIXING_TIME_S) -> np.ndarray:
     """Mic signals ``(n_mics, n_samples + n_taps - 1)`` of a source moving along ``path_m``.
 
     Parameters
@@ -98,8 +109,7 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
     fs : int
         Sampling rate in Hz.
     block_s : float
-        Spacing of the RIR updates in seconds (cross-fade length; 20-50 ms is smooth for a
-        walking talker: 1 m/s moves the source 2-5 cm per block).
+        ``method="blocks"`` only: spacing of the RIR updates in seconds (cross-fade length).
     waypoint_times_s : (n,) array, optional
         Times of the waypoints; default evenly over the signal.
     length_s, max_order : optional
@@ -107,6 +117,11 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
         path position farthest from the mics).
     highpass_hz : float or None
         RIR high-pass as :func:`scenesim.render.room_rir` (default 20 Hz; None: raw).
+    method : {"doppler", "blocks"}
+        Per-image time-varying delays (default) or cross-faded block RIRs (module docstring).
+    mixing_time_s : float
+        ``method="doppler"``: images arriving within this time move with the source; the rest
+        is a fixed late filter (default :data:`scenesim.ism.DEFAULT_MIXING_TIME_S`).
 
     Example
     -------
@@ -124,14 +139,17 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
         raise ParameterError("signal", getattr(x, "shape", signal), "a finite 1-D signal (n_samples,)")
     if not isinstance(room, ShoeBox):
         raise ParameterError("room", room, "a scenesim.room.ShoeBox")
+    check_choice("method", method, ("doppler", "blocks"))
     mics = np.atleast_2d(np.asarray(mics_m, dtype=float))
+    if method == "doppler":
+        return _doppler(x, room, path_m, mics, fs=fs, waypoint_times_s=waypoint_times_s, length_s=length_s,
+                        max_order=max_order, highpass_hz=highpass_hz,
+                        mixing_time_s=check_positive("mixing_time_s", mixing_time_s))
     centres_s, windows = crossfade_windows(x.size, fs, block_s)
     pos = path_positions(path_m, centres_s, duration_s=(x.size - 1) / fs, waypoint_times_s=waypoint_times_s)
     for k, p in enumerate(pos):
         room.check_inside(p, name=f"path_m at t={centres_s[k]:.3f} s")
-    if length_s is None and max_order is None:
-        far = pos[int(np.argmax([np.max(np.linalg.norm(mics - p, axis=1)) for p in pos]))]
-        length_s = default_length_s(room, far, mics)
+    length_s = _default_length(room, pos, mics, length_s, max_order)
     rir_cache: dict[tuple, np.ndarray] = {}
     pieces = []
     for (start, w), p in zip(windows, pos):
@@ -146,6 +164,29 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
         seg = ss.fftconvolve(h, (w * x[start : start + w.size])[None, :], axes=-1)
         y[:, start : start + seg.shape[-1]] += seg
     return y
+
+
+def _default_length(room, pos, mics, length_s, max_order):
+    """Default RIR length: :func:`scenesim.ism.default_length_s` at the path position farthest from the mics."""
+    if length_s is None and max_order is None:
+        far = pos[int(np.argmax([np.max(np.linalg.norm(mics - p, axis=1)) for p in pos]))]
+        length_s = default_length_s(room, far, mics)
+    return length_s
+
+
+def _doppler(x, room, path_m, mics, *, fs, waypoint_times_s, length_s, max_order, highpass_hz, mixing_time_s):
+    from scenesim.moving_doppler import PATH_HOP_S, render_doppler
+
+    hop = max(1, int(round(PATH_HOP_S * fs)))
+    n_ctrl = max(1, math.ceil((x.size - 1) / hop) + 1)
+    times = np.arange(n_ctrl) * hop / fs
+    pos = path_positions(path_m, times, duration_s=(x.size - 1) / fs, waypoint_times_s=waypoint_times_s)
+    lo, hi = pos.min(axis=0), pos.max(axis=0)
+    for p in (lo, hi):  # the box is convex: its corners of the path bound every sample
+        room.check_inside(p, name="path_m")
+    length_s = _default_length(room, pos, mics, length_s, max_order)
+    return render_doppler(x, room, pos, hop, mics, fs=fs, length_s=length_s, max_order=max_order,
+                          mixing_time_s=mixing_time_s, highpass_hz=highpass_hz)
 
 
 __all__ = ["crossfade_windows", "path_positions", "render_moving_source"]

@@ -31,8 +31,9 @@ from scipy import signal as sps
 
 from scenesim.cache import cached_rir
 from scenesim.errors import ParameterError
+from scenesim.iso3382 import critical_distance_m  # noqa: F401  (re-exported: its former home)
 from scenesim.rt60 import measure_rt60
-from scenesim.validate import check_positive, check_range
+from scenesim.validate import check_range
 
 EARLY_WINDOW_S = 0.05
 """Default early window after the direct path (s): the C50 split."""
@@ -161,17 +162,6 @@ def rir_acoustics(h, h_direct, *, fs: int, cut_sample: int) -> dict[str, float |
     out["drr_db"] = _db(float(np.sum(direct**2)), float(np.sum((early + late) ** 2)))
     out["c50_db"] = _db(float(np.sum((direct + early) ** 2)), float(np.sum(late**2)))
     return out
-
-
-def critical_distance_m(volume_m3: float, rt60_s: float) -> float:
-    """Sabine's critical distance ``r_c = 0.057 sqrt(V / RT60)`` (m) of an omni source.
-
-    Where the direct and the diffuse reverberant energy are equal (DRR = 0 dB).
-
-    >>> round(critical_distance_m(56.0, 0.5), 3)
-    0.603
-    """
-    return float(0.057 * np.sqrt(check_positive("volume_m3", volume_m3) / check_positive("rt60_s", rt60_s)))
 
 
 __all__ = [

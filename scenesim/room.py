@@ -102,6 +102,12 @@ class ShoeBox:
         :data:`scenesim.bands.OCTAVE_CENTERS_HZ`.
     air : scenesim.air.AirAbsorption, optional
         ISO 9613-1 air absorption (temperature, humidity).
+    scattering : float, 6 floats or (6, n_bands) table, optional
+        Scattering coefficient in [0, 1) per wall (and band): the share of the reflected
+        energy leaving diffusely (:mod:`scenesim.scattering`; 6 values are per wall, another
+        count ``n_bands`` per band).  None or 0: purely specular (the class
+        default); :func:`scenesim.calibration.calibrate_room` uses
+        :data:`scenesim.scattering.DEFAULT_SCATTERING` = 0.5, typical of furnished rooms.
     target_rt60_s : float or n_bands floats, optional
         The reverberation time an absorption was calibrated for (recorded by
         :func:`scenesim.calibration.calibrate_room`; informational, sets default RIR lengths).
@@ -132,6 +138,7 @@ class ShoeBox:
     bands_hz: tuple[float, ...] | None = None
     air: object | None = None
     target_rt60_s: float | tuple[float, ...] | None = None
+    scattering: float | tuple | None = None
     _alpha: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -177,7 +184,7 @@ class ShoeBox:
                 if _calibrator is None:  # pragma: no cover - scenesim/__init__ registers it
                     raise ScenesimError("rt60_method='calibrated' needs scenesim.calibration imported")
                 alpha = np.asarray(_calibrator(self.dims_m, t, absorption=profile, bands_hz=self.bands_hz,
-                                               air=self.air, c=self.c), dtype=float)
+                                               air=self.air, c=self.c, scattering=self.scattering), dtype=float)
         alpha = np.array(alpha, dtype=float)
         alpha.flags.writeable = False
         object.__setattr__(self, "_alpha", alpha)
@@ -192,6 +199,7 @@ class ShoeBox:
 
             if not isinstance(self.air, AirAbsorption):
                 raise ParameterError("air", self.air, "None or a scenesim.air.AirAbsorption")
+        self._check_scattering()
         if self.target_rt60_s is not None:
             t = np.asarray(self.target_rt60_s, dtype=float)
             if t.ndim > 1 or not np.all(np.isfinite(t)) or np.any(t <= 0):
@@ -199,6 +207,38 @@ class ShoeBox:
             object.__setattr__(self, "target_rt60_s", float(t) if t.ndim == 0 else tuple(map(float, t)))
 
     # ----------------------------------------------------------------- derived values
+    def _check_scattering(self):
+        if self.scattering is None:
+            return
+        s = np.asarray(self.scattering, dtype=float) if not isinstance(self.scattering, str) else None
+        n_bands = None if self.bands_hz is None else len(self.bands_hz)
+        shapes = [(), (6,)] + ([] if n_bands is None else [(n_bands,), (6, n_bands)])
+        if s is None or s.shape not in shapes or not np.all(np.isfinite(s)) or np.any(s < 0) or np.any(s >= 1):
+            raise ParameterError("scattering", self.scattering,
+                                 "None, or a scattering coefficient in [0, 1): one, 6 per wall"
+                                 + ("" if n_bands is None else f", {n_bands} per band or (6, {n_bands})"))
+        if not np.any(s > 0):
+            object.__setattr__(self, "scattering", None)
+        elif s.ndim == 0:
+            object.__setattr__(self, "scattering", float(s))
+        elif s.ndim == 1:
+            object.__setattr__(self, "scattering", tuple(float(v) for v in s))
+        else:
+            object.__setattr__(self, "scattering", tuple(tuple(float(v) for v in row) for row in s))
+
+    def scattering_table(self, band: int | None = None) -> np.ndarray:
+        """Scattering ``(6,)`` per wall of one band (index; None for flat rooms); zeros when specular."""
+        if self.scattering is None:
+            return np.zeros(6)
+        s = np.asarray(self.scattering, dtype=float)
+        if s.ndim == 0:
+            return np.full(6, float(s))
+        if s.ndim == 2:
+            return s[:, 0 if band is None else int(band)].copy()
+        if s.size == 6:  # per wall, as absorption (also when there are 6 bands)
+            return s.copy()
+        return np.full(6, s[0 if band is None else int(band)])
+
     @property
     def volume_m3(self) -> float:
         """Room volume in m^3."""
@@ -240,7 +280,8 @@ class ShoeBox:
                 raise ParameterError("band", band, f"a band index in 0..{len(self.bands_hz) - 1}")
             alpha = self._alpha[:, int(band)]
         return ShoeBox(self.dims_m, tuple(float(v) for v in alpha), c=self.c,
-                       min_wall_distance_m=self.min_wall_distance_m)
+                       min_wall_distance_m=self.min_wall_distance_m,
+                       scattering=None if self.scattering is None else tuple(self.scattering_table(band)))
 
     def _band_rt60(self, formula) -> float | np.ndarray:
         if self.bands_hz is None:

@@ -7,6 +7,7 @@ float WAV, one channel per mic), ``rir.json`` (the settings and room), and with
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from pathlib import Path
@@ -25,7 +26,7 @@ RT60_WARN_REL = 0.10
 _OPTIONS = {
     "dims_m": "--dims", "absorption": "--absorption", "rt60_s": "--rt60", "source_m": "--source",
     "mics_m": "--mic", "length_s": "--length", "max_order": "--max-order", "method": "--method",
-    "spacing_m": "--spacing", "center_m": "--pair-center",
+    "spacing_m": "--spacing", "center_m": "--pair-center", "scattering": "--scattering",
 }
 
 FORMATS = ("npy", "wav", "both")
@@ -50,6 +51,9 @@ def add_parser(subparsers):
                       help="target T30 per octave 125 Hz..8 kHz (calibrated per band)")
     p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="sabine",
                    help="how --rt60 becomes an absorption (default sabine)")
+    p.add_argument("--scattering", type=float, default=None, metavar="S",
+                   help="wall scattering coefficient in [0, 1) (diffuse reflections, scenesim.scattering); "
+                        "default 0.5 with --rt60-method calibrated / --band-rt60, else 0 (specular)")
     p.add_argument("--air", action="store_true",
                    help="add ISO 9613-1 air absorption (see --temperature, --humidity)")
     p.add_argument("--temperature", type=float, default=20.0, metavar="C",
@@ -198,6 +202,7 @@ def run(args) -> int:
     meta = {
         "dims_m": list(room.dims_m),
         "wall_absorption": room.wall_absorption.tolist(),
+        "scattering": room.scattering,
         "rt60_s": args.rt60,
         "rt60_method": args.rt60_method if args.rt60 is not None else None,
         "sabine_rt60_s": np.asarray(room.sabine_rt60_s).tolist(),
@@ -218,6 +223,7 @@ def run(args) -> int:
     }
     meta.update(_band_meta(room))
     meta["highpass_hz"] = args.highpass if args.highpass else None
+    meta["iso3382"] = _iso3382(room, args, mics, h, directivity)
     write_json_atomic(out / "rir.json", meta)
     written.append(out / "rir.json")
     print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
@@ -229,8 +235,10 @@ def run(args) -> int:
 
         # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
         method = "auto" if args.method == "hybrid" else args.method
+        # pyroomacoustics' ISM is specular: compare the specular part; scattering below.
+        specular = dataclasses.replace(room, scattering=None)
         check = compare_with_pyroomacoustics(
-            room, args.source, mics, fs=args.fs, max_order=compare_order, method=method
+            specular, args.source, mics, fs=args.fs, max_order=compare_order, method=method
         )
         numbers = check.to_dict()
         write_json_atomic(out / "crosscheck.json", numbers)
@@ -252,6 +260,9 @@ def run(args) -> int:
         if args.method == "hybrid":
             numbers["hybrid"] = _compare_hybrid(args, room, mics, compare_order, directivity, h)
             write_json_atomic(out / "crosscheck.json", numbers)
+        if room.scattering is not None:
+            numbers["scattering"] = _compare_scattering(room, args, mics)
+            write_json_atomic(out / "crosscheck.json", numbers)
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -266,17 +277,30 @@ def _build_room(args, absorption):
 
     air = AirAbsorption(temperature_c=args.temperature, humidity_pct=args.humidity) if args.air else None
     dims = tuple(args.dims)
+    scat = {} if args.scattering is None else {"scattering": args.scattering}
     if args.band_rt60 is not None:
-        return calibrate_room(dims, tuple(args.band_rt60), bands_hz=OCTAVE_CENTERS_HZ, air=air, fs=args.fs)
+        return calibrate_room(dims, tuple(args.band_rt60), bands_hz=OCTAVE_CENTERS_HZ, air=air, fs=args.fs, **scat)
     if args.band_absorption is not None:
         values = np.asarray(args.band_absorption, dtype=float)
         if values.size not in (7, 42):
             raise ParameterError("band_absorption", args.band_absorption, "7 or 42 values")
         table = values if values.size == 7 else values.reshape(6, 7)
-        return ShoeBox(dims, table, bands_hz=OCTAVE_CENTERS_HZ, air=air)
+        return ShoeBox(dims, table, bands_hz=OCTAVE_CENTERS_HZ, air=air, scattering=args.scattering)
     if args.rt60 is not None and args.rt60_method == "calibrated":
-        return calibrate_room(dims, args.rt60, air=air, fs=args.fs)
-    return ShoeBox(dims, absorption, rt60_s=args.rt60, rt60_method=args.rt60_method, air=air)
+        return calibrate_room(dims, args.rt60, air=air, fs=args.fs, **scat)
+    return ShoeBox(dims, absorption, rt60_s=args.rt60, rt60_method=args.rt60_method, air=air,
+                   scattering=args.scattering)
+
+
+def _iso3382(room, args, mics, h, directivity) -> dict:
+    """ISO 3382-1 parameters of every mic's RIR beside the target's (printed; saved in rir.json)."""
+    from benchmarks.cli.rir_iso import iso3382_table
+    from scenesim.render import room_rir
+
+    # The exact direct path, rendered as h was (same high-pass and directivity), for the exact DRR.
+    hd = room_rir(room, args.source, mics, fs=args.fs, max_order=0, length_s=h.shape[1] / args.fs,
+                  highpass_hz=args.highpass if args.highpass else None, directivity=directivity)
+    return iso3382_table(h, hd, room, args.source, mics, fs=args.fs, rt60_arg=args.rt60)
 
 
 def _band_meta(room) -> dict:
@@ -297,7 +321,9 @@ def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
         pyroomacoustics_air_table,
     )
 
-    check = compare_bands_with_pyroomacoustics(room, args.source, mics, fs=args.fs, max_order=max_order)
+    # pyroomacoustics' ISM is specular: compare our specular part (scattering is not in it).
+    check = compare_bands_with_pyroomacoustics(dataclasses.replace(room, scattering=None), args.source, mics,
+                                               fs=args.fs, max_order=max_order)
     numbers = check.to_dict()
     what = " + ".join(w for w, on in (("octave-band materials", room.bands_hz is not None),
                                       ("air absorption", room.air is not None)) if on)
@@ -319,6 +345,21 @@ def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
     path = out / "crosscheck.json"
     write_json_atomic(path, numbers)
     return [path]
+
+
+def _compare_scattering(room, args, mics) -> dict:
+    """Per-octave T30, EDT, C50 of mic 0 against pyroomacoustics' ray tracing (same absorption, scattering)."""
+    from scenesim.crosscheck_scattering import compare_scattering_with_pyroomacoustics
+
+    chk = compare_scattering_with_pyroomacoustics(room, args.source, mics, fs=args.fs)
+    print("  scattering vs pyroomacoustics ray tracing (hybrid ISM order 3 + 20000 rays; its scattered "
+          "energy is not re-traced, pyroomacoustics issue #415):")
+    print("    octave (Hz)      " + " ".join(f"{f:>7g}" for f in chk.bands_hz))
+    for label, ours, theirs in (("T30 s", chk.t30_ours_s, chk.t30_theirs_s), ("EDT s", chk.edt_ours_s, chk.edt_theirs_s),
+                                ("C50 dB", chk.c50_ours_db, chk.c50_theirs_db)):
+        print(f"    {label:<7} ours    " + " ".join(f"{v:7.3f}" for v in ours))
+        print(f"    {label:<7} theirs  " + " ".join(f"{v:7.3f}" for v in theirs))
+    return chk.to_dict()
 
 
 def _directivity(args):
@@ -362,8 +403,9 @@ def _compare_hybrid(args, room, mics, max_order, directivity, h) -> dict:
     from scenesim.rt60 import measure_rt60
 
     # The same renderer and high-pass as the hybrid RIR, so only the tail differs.
+    # Same length as h: the scattered tail's noise (scenesim.scattering) depends on the length.
     full = room_rir(
-        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+        room, args.source, mics, fs=args.fs, max_order=max_order, length_s=h.shape[1] / args.fs,
         method="fast", directivity=directivity, highpass_hz=args.highpass if args.highpass else None,
     )
     n_mix = round((args.mixing_time or DEFAULT_MIXING_TIME_S) * args.fs)

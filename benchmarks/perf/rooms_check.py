@@ -1,0 +1,158 @@
+"""Issue 18's tables, measured again: rooms that sound like their RT60.
+
+Sections (``--only`` picks some; each prints a table):
+
+* ``targets``: rooms the calibration never saw (a corridor, one highly absorptive wall, an
+  open office), calibrated with and without diffuse scattering, measured at placements drawn
+  independently (seeded) by the ISO 3382 chain of :mod:`scenesim.iso3382`: speech-octave T30
+  and EDT against the target, C50 against its diffuse-field value.
+* ``pra``: the same rooms against pyroomacoustics' ray tracing (same absorption and
+  scattering; T30/EDT per octave, speech-octave mean).
+* ``moving``: a 1 kHz and a 4 kHz tone from a talker walking 1 m/s: the largest spectral line
+  outside the Doppler band, re the tone, per-image delays vs 50 ms blocks.
+* ``hybrid``: hybrid vs full model, per-octave T30 (125 Hz-4 kHz) in a corridor and in a room
+  with octave-band absorption and air, and the hybrid/full speed at RT60 1 s.
+
+Run: ``python -m benchmarks.perf.rooms_check [--only targets pra moving hybrid]``.  Timings are
+wall clock on a shared machine (quote ``uptime``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+FS = 16000
+ROOMS = {
+    "corridor 14x2.2x2.8": ((14.0, 2.2, 2.8), 0.8, None),
+    "absorptive wall 7x5x3": ((7.0, 5.0, 3.0), 0.5, (0.9, 0.1, 0.1, 0.1, 0.1, 0.1)),
+    "open office 16x12x2.9": ((16.0, 12.0, 2.9), 0.6, (0.15, 0.15, 0.15, 0.15, 0.1, 0.6)),
+}
+
+
+def _placements(dims, n, seed=5):
+    rng = np.random.default_rng(seed)
+    d = np.asarray(dims)
+    out = []
+    for _ in range(n):
+        src, mic = rng.uniform(0.15, 0.85, 3) * d, rng.uniform(0.15, 0.85, 3) * d
+        src[2], mic[2] = 1.6, 1.0
+        out.append((src, mic))
+    return out
+
+
+def targets(n_placements: int = 3) -> None:
+    from scenesim.calibration import calibrate_room
+    from scenesim.iso3382 import diffuse_field_parameters, room_parameters
+    from scenesim.render import room_rir
+
+    print("## Unseen rooms: speech-octave T30 / EDT vs target (%), C50 - diffuse-field C50 (dB)")
+    print(f"{'room':24s} {'scattering':>10s} {'T30 %':>16s} {'EDT %':>16s} {'C50 dB':>16s}")
+    for name, (dims, target, profile) in ROOMS.items():
+        for scat in (None, 0.5):
+            room = calibrate_room(dims, target, absorption=profile, scattering=scat)
+            t30, edt, c50 = [], [], []
+            for src, mic in _placements(dims, n_placements):
+                h = room_rir(room, src, mic, fs=FS)[0]
+                hd = room_rir(room, src, mic, fs=FS, max_order=0, length_s=h.size / FS)[0]
+                got = room_parameters(h, FS, h_direct=hd, centers_hz=(500.0, 1000.0, 2000.0))
+                want = diffuse_field_parameters(target, float(np.linalg.norm(src - mic)), float(np.prod(dims)))
+                t30.append(100 * (got["t_speech_s"] / target - 1))
+                edt.append(100 * (got["edt_speech_s"] / target - 1))
+                c50.append(got["c50_db"] - want["c50_db"])
+            span = lambda v, f: f"{min(v):{f}}..{max(v):{f}}"  # noqa: E731
+            print(f"{name:24s} {str(scat):>10s} {span(t30, '+.1f'):>16s} {span(edt, '+.1f'):>16s} {span(c50, '+.2f'):>16s}")
+
+
+def pra(n_placements: int = 1) -> None:
+    from scenesim.calibration import calibrate_room
+    from scenesim.crosscheck_scattering import compare_scattering_with_pyroomacoustics
+
+    print("## Scattering 0.5 vs pyroomacoustics ray tracing (same absorption and scattering), mic 0")
+    for name, (dims, target, profile) in ROOMS.items():
+        room = calibrate_room(dims, target, absorption=profile)
+        for src, mic in _placements(dims, n_placements):
+            chk = compare_scattering_with_pyroomacoustics(room, src, [mic], fs=FS)
+            print(f"{name}: octaves {chk.bands_hz}")
+            for label, a, b in (("T30", chk.t30_ours_s, chk.t30_theirs_s), ("EDT", chk.edt_ours_s, chk.edt_theirs_s)):
+                print(f"  {label} ours   " + " ".join(f"{v:6.3f}" for v in a))
+                print(f"  {label} theirs " + " ".join(f"{v:6.3f}" for v in b))
+
+
+def moving() -> None:
+    from scipy import signal as ss
+
+    from scenesim.moving import render_moving_source
+    from scenesim.room import ShoeBox
+
+    print("## Moving tone (1 m/s, RT60 ~0.3 s): largest line outside f0 (1 +- v/c) +- 6 Hz, dB re tone")
+    room = ShoeBox((6.0, 5.0, 3.0), 0.3)
+    path, mics = [(1.0, 1.0, 1.5), (1.0, 3.8, 1.5)], [(5.0, 2.5, 1.4), (5.0, 2.52, 1.4)]
+    for f0 in (1000.0, 2000.0, 4000.0):
+        x = np.sin(2 * np.pi * f0 * np.arange(int(2.8 * FS)) / FS)
+        row = []
+        for method in ("doppler", "blocks"):
+            t0 = time.perf_counter()
+            y = render_moving_source(x, room, path, mics, fs=FS, length_s=0.4, method=method)
+            dt = time.perf_counter() - t0
+            seg = y[0, int(0.6 * FS) : int(2.6 * FS)]
+            p = np.abs(np.fft.rfft(seg * ss.windows.blackmanharris(seg.size))) ** 2
+            f = np.fft.rfftfreq(seg.size, 1 / FS)
+            out = np.abs(f - f0) > f0 / room.c + 6.0
+            row.append(f"{method} {10 * np.log10(p[out].max() / p.max()):7.1f} dB ({dt:.1f} s)")
+        print(f"  {f0:6.0f} Hz: " + "; ".join(row))
+
+
+def hybrid() -> None:
+    from scenesim.air import AirAbsorption
+    from scenesim.bands import OCTAVE_CENTERS_HZ, octave_rt60
+    from scenesim.calibration import calibrate_room
+    from scenesim.geometry import MicPair
+    from scenesim.render import room_rir
+    from scenesim.room import ShoeBox
+
+    centers = OCTAVE_CENTERS_HZ[:6]
+    banded = ShoeBox((7.0, 6.0, 3.0), np.array([[0.08, 0.1, 0.15, 0.2, 0.25, 0.3]] * 6), bands_hz=centers,
+                     air=AirAbsorption(), scattering=0.5)
+    cases = {
+        "corridor, calibrated 1 s": calibrate_room((14.0, 2.2, 2.8), 1.0),
+        "corridor, specular": ShoeBox((14.0, 2.2, 2.8), 0.1),
+        "banded + air, s 0.5": banded,
+        "~100 m^3 calibrated 1 s": calibrate_room((6.0, 5.5, 3.0), 1.0),
+    }
+    print("## Hybrid vs full (both mics of the 2.14 cm pair): per-octave T30 ratio of mic 0 (125 Hz-4 kHz), "
+          "median wall time of 3 runs full / hybrid")
+    for name, room in cases.items():
+        d = np.asarray(room.dims_m)
+        src, mic = d * [0.2, 0.4, 0.5], MicPair(tuple(d * [0.75, 0.6, 0.4])).positions_m
+        runs = {"fast": [], "hybrid": []}
+        for _ in range(3):
+            for method in runs:
+                t0 = time.perf_counter()
+                h = room_rir(room, src, mic, fs=FS, method=method)[0]
+                runs[method].append(time.perf_counter() - t0)
+                if method == "fast":
+                    full = h
+                else:
+                    hyb = h
+        t_full, t_hyb = (statistics.median(runs[m]) for m in ("fast", "hybrid"))
+        ratio = octave_rt60(hyb, FS, centers) / octave_rt60(full, FS, centers)
+        print(f"  {name:26s} " + " ".join(f"{v:5.3f}" for v in ratio)
+              + f"   {t_full:6.2f} s / {t_hyb:5.2f} s = {t_full / t_hyb:5.1f}x")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", nargs="+", choices=("targets", "pra", "moving", "hybrid"),
+                    default=("targets", "pra", "moving", "hybrid"))
+    args = ap.parse_args(argv)
+    for name in args.only:
+        globals()[name]()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
