@@ -5,8 +5,9 @@ tasks (:func:`plan_conditions`, :func:`plan_units`), runs them on an executor an
 process that writes the store: one transaction per finished condition, so ``kill -9`` loses
 at most the units in flight and a rerun computes only what is missing.  A unit of work
 (:class:`~benchmarks.worker.UnitTask`) is one condition, or a whole geometry group when
-there are enough groups to keep every worker busy.  The report glue is
-:mod:`benchmarks.store_report`.
+there are enough groups to keep every worker busy.  The runner never imports the report
+(it sits below it): a caller that wants one passes a writer, e.g.
+:func:`benchmarks.store_report.write_store_report`, as ``report``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import os
 import sys
 import time
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,6 @@ from benchmarks.executors import EXECUTORS, make_executor
 from benchmarks.progress import LineProgress
 from benchmarks.signals import interrupted
 from benchmarks.store import ResultStore
-from benchmarks.store_report import report_meta, write_store_report
 from benchmarks.sweep import Condition, Sweep, load_sweep, stratified
 from benchmarks.versioning import check_version
 from benchmarks.worker import (  # re-exported: the runner's public names before the split
@@ -124,7 +124,7 @@ def run_sweep(
     seed: int | None = None,
     seeds: int | None = None,
     retry_errors: bool = False,
-    report: bool = True,
+    report: Callable[..., Iterable[Path]] | None = None,
     progress: bool = True,
     new_version: bool = False,
 ) -> RunSummary:
@@ -146,8 +146,10 @@ def run_sweep(
         Replace the sweep's seed list by ``0 .. seeds-1`` (before ``seed`` offsets it).
     retry_errors : bool
         Recompute rows stored with ``status='error'`` (by default they count as done).
-    report : bool
-        Write ``out_dir/report`` from every row in the store at the end.
+    report : callable, optional
+        ``report(out_dir, store=store) -> paths``, called at the end to write
+        ``out_dir/report`` from every row in the store (the CLI passes
+        :func:`benchmarks.store_report.write_store_report`); None or False: no report.
     new_version : bool
         The store holds rows of another version of the sweep (any axis or fixed value,
         enhancer or parameter changed): move them to ``results_previous`` and start this
@@ -198,7 +200,7 @@ def run_sweep(
             raise interrupted(exc, n_written=tally.n_rows, n_stored=len(store.done_keys()), store_path=store.path) from None
         finally:
             store.finish_run(run_id, status=status, n_rows_written=tally.n_rows, n_errors=tally.n_errors)
-        report_files, report_error = _try_report(out_dir, store) if report else ((), None)
+        report_files, report_error = _try_report(report, out_dir, store) if report else ((), None)
     return RunSummary(
         out_dir=out_dir,
         store_path=store.path,
@@ -269,11 +271,11 @@ def _execute(ex, tasks, store: ResultStore, tally: _Tally, *, run_id: str, versi
                 bar.set_postfix(errors=tally.n_errors, refresh=False)
 
 
-def _try_report(out_dir: Path, store: ResultStore) -> tuple[tuple[Path, ...], str | None]:
+def _try_report(write, out_dir: Path, store: ResultStore) -> tuple[tuple[Path, ...], str | None]:
     """``(files, None)``, or ``((), reason)`` when the report fails: the rows are safe in the
     store, so a report failure is said, never raised."""
     try:
-        return tuple(write_store_report(out_dir, store=store)), None
+        return tuple(write(out_dir, store=store)), None
     except Exception as exc:
         return (), _exc_text(exc)
 
@@ -364,11 +366,9 @@ __all__ = [
     "group_parts",
     "plan_conditions",
     "plan_units",
-    "report_meta",
     "run_condition",
     "render_group",
     "run_sweep",
     "run_unit",
     "sensor_columns",
-    "write_store_report",
 ]

@@ -218,11 +218,14 @@ class DataSource:
         duration_s = check_positive("duration_s", duration_s)
         seed = check_int("seed", seed, minimum=0)
         n_channels = check_int("n_channels", n_channels, minimum=1)
+        asked = noise_type
         if isinstance(noise_type, str) and noise_type not in self.noise_types() and "-" in noise_type:
             # a variant "<type>-<name>" (e.g. "factory-hall": its own field in a sweep) plays <type>
             noise_type = noise_type.split("-", 1)[0]
         if not isinstance(noise_type, str) or noise_type not in self.noise_types():
-            raise ParameterError("noise_type", noise_type, "one of " + ", ".join(self.noise_types()))
+            # name what the user asked for, not the base type a variant was read as
+            raise ParameterError("noise_type", asked, "one of " + ", ".join(self.noise_types())
+                                 + " (or a variant '<type>-<name>' of one)")
         n = max(1, int(round(duration_s * self.fs)))
         rng = np.random.default_rng([seed, _tag("noise:" + noise_type)])
         if noise_type in self.local_noise_types:

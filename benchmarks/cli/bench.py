@@ -102,6 +102,7 @@ def _nonneg_int(text: str) -> int:
 
 def _run(args) -> int:
     from benchmarks.runner import _select_conditions, run_sweep
+    from benchmarks.store_report import write_store_report
 
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
@@ -130,7 +131,7 @@ def _run(args) -> int:
             seed=args.seed,
             seeds=args.seeds,
             retry_errors=args.retry_errors,
-            report=not args.no_report,
+            report=None if args.no_report else write_store_report,
             new_version=args.new_version,
         )
     for note in summary.warnings:
