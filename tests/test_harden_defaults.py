@@ -40,7 +40,7 @@ def test_readme_pair_spacing_is_the_default_spacing():
 def test_readme_listening_default_is_the_code_default():
     from benchmarks.listening import DEFAULT_LISTEN_COUNT
 
-    assert DEFAULT_LISTEN_COUNT == _readme_number(r"By default (\d+) conditions spread over noises")
+    assert DEFAULT_LISTEN_COUNT == _readme_number(r"By default (\d+) conditions spread over")
 
 
 def test_readme_thesis_geometry_is_the_sweep_default():
