@@ -31,7 +31,7 @@ import numpy as np
 
 from scenesim.errors import MetricError, ParameterError
 
-__all__ = ["FS", "dnsmos_p835"]
+__all__ = ["COLUMNS", "FS", "dnsmos_p835", "input_columns", "output_columns"]
 
 FS = 16000
 """The only rate DNSMOS accepts (Hz)."""
@@ -100,3 +100,26 @@ def dnsmos_p835(x, fs: int) -> dict[str, float]:
     session = _session()
     raw = np.array([session.run(None, {"input_1": w[None]})[0][0] for w in _windows(x)])
     return {key: float(np.mean(np.polyval(_POLY[key], raw[:, i]))) for i, key in enumerate(_POLY)}
+
+
+# -- results-store columns (a sweep opts in with metrics = ["dnsmos"]) ----------------------
+
+#: Store columns: the mixture at the reference mic (``*_in``) and the first output channel.
+COLUMNS: dict[str, str] = {f"{k}{suffix}": "REAL" for suffix in ("_in", "") for k in _POLY}
+
+
+def _scores_at_16k(x: np.ndarray, fs: int) -> dict[str, float]:
+    from scenesim.audio import resample
+
+    x = np.asarray(x, dtype=np.float64)
+    return dnsmos_p835(x if int(fs) == FS else resample(x[None], int(fs), FS)[0], FS)
+
+
+def input_columns(mixture0, fs: int) -> dict[str, float]:
+    """``dnsmos_sig_in``, ``dnsmos_bak_in``, ``dnsmos_ovrl_in`` of the mixture at the reference mic ``(n,)``."""
+    return {f"{k}_in": v for k, v in _scores_at_16k(mixture0, fs).items()}
+
+
+def output_columns(output0, fs: int, latency_samples: int) -> dict[str, float]:
+    """``dnsmos_sig``, ``dnsmos_bak``, ``dnsmos_ovrl`` of an output channel ``(n,)`` after its latency."""
+    return _scores_at_16k(np.asarray(output0)[int(latency_samples):], fs)
