@@ -318,6 +318,8 @@ def _optional_input_metrics(cond: Condition, rendered) -> dict[str, Any]:
 
     try:
         return dnsmos.input_columns(np.asarray(rendered.mixture)[0], int(rendered.fs))
+    except ImportError:
+        return {"dnsmos_input_error": "dnsmos: not installed: pip install -e '.[dnsmos]'"}
     except Exception as exc:  # an optional metric never fails the condition
         return {"dnsmos_input_error": f"dnsmos_in: {_exc_text(exc)}"}
 
@@ -330,7 +332,8 @@ def _add_optional_output_metrics(row: dict[str, Any], cond: Condition, rendered,
 
     errors = [e for e in (row.get("error"), inputs.get("dnsmos_input_error")) if e]
     row.update({k: v for k, v in inputs.items() if k in dnsmos.COLUMNS})
-    if row.get("status") == "ok" and enhancer.output0 is not None:
+    missing = "not installed" in (inputs.get("dnsmos_input_error") or "")
+    if row.get("status") == "ok" and enhancer.output0 is not None and not missing:
         try:
             row.update(dnsmos.output_columns(enhancer.output0, int(rendered.fs), enhancer.tags.latency_samples))
         except Exception as exc:
