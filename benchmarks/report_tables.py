@@ -49,6 +49,13 @@ METRIC_FIELDS: tuple[str, ...] = (
     "segsnr_out_db",
     "si_sdr_in_db",
     "si_sdr_out_db",
+    # DNSMOS P.835, in sweeps that opt in (metrics = ["dnsmos"]); empty columns otherwise.
+    "dnsmos_sig_in",
+    "dnsmos_sig",
+    "dnsmos_bak_in",
+    "dnsmos_bak",
+    "dnsmos_ovrl_in",
+    "dnsmos_ovrl",
 )
 
 _DERIVED = {

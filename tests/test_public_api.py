@@ -108,6 +108,19 @@ def test_added_fixed_names_of_the_robust_eb_reverberation_and_peers_issues():
                 "c50_out_db", "srmr_in", "srmr_out", "t30_s", "edt_s", "drr_rir_db", "c50_rir_db"):  # fmt: skip
         assert col in COLUMNS, col
     assert callable(benchmarks.load_results)
+
+
+def test_fixed_names_of_the_learned_peer_dereverberation_and_dnsmos_issue():
+    # Issue 19: enhancers (listed even when their extra is missing), DNSMOS columns, score command.
+    from benchmarks.cli.main import build_parser
+    from benchmarks.store import COLUMNS
+
+    names = enhancers.available()
+    for name in ("dfn3", "eb-robust-dfn3", "wpe", "wpe-eb-robust", "wpe-eb-robust-ss"):
+        assert name in names, name
+    for col in ("dnsmos_sig", "dnsmos_bak", "dnsmos_ovrl", "dnsmos_sig_in", "dnsmos_bak_in", "dnsmos_ovrl_in"):
+        assert col in COLUMNS, col
+    assert build_parser().parse_args(["score", "a.wav", "--ref", "b.wav", "--out", "c.csv"]).command == "score"
     room = scenesim.ShoeBox(dims_m=(5, 4, 3), absorption=0.3)
     h = scenesim.image_source_rir(room, (1.0, 1.0, 1.5), [(3.0, 2.0, 1.2)], fs=16000, method="hybrid")
     assert h.shape[0] == 1 and np.all(np.isfinite(h))
