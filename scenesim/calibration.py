@@ -20,8 +20,11 @@ The absorption is varied by scaling a profile in the log-reflection domain,
 alpha in (0, 1) and the profile's shape.  ``s`` starts from Eyring, then follows
 ``T_measured / T_target`` and secant steps on ``log T`` vs ``log s``; it stops within
 :data:`CALIBRATION_TOLERANCE` (1 %), at most :data:`CALIBRATION_MAX_ITER` measurements per
-band.  Results are memoised with :func:`scenesim.cache.cached_array` (memory, and disk when
-``$SCENESIM_CACHE`` is set).
+band.  Results are memoised with :func:`scenesim.cache.cached_array` in memory and on disk:
+in ``$SCENESIM_CACHE``, or by default the user's cache directory
+(:func:`scenesim.memo.user_cache_dir`), so a room is calibrated once per machine (keyed by
+everything that changes it, the ISM's ``ALGORITHM_VERSION`` included); ``SCENESIM_CACHE=``
+(empty) keeps it in memory only.
 
 The check of the result must not be the loop's own measurement at the loop's own placements:
 ``tests/test_calibration.py`` measures other placements with pyroomacoustics'
@@ -180,9 +183,13 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
         raise ParameterError("rt60_s", rt60_s, allowed)
     for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
         sabine_absorption(float(t), dims, c=c)
+    from scenesim import ism  # the renderer whose RIRs are measured: its version is part of the result
+
     key = array_key("room-calibration", CALIBRATION_VERSION, dims=dims, rt60_s=target.tolist(), profile=profile,
-                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS)
-    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs))
+                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS,
+                    ism_version=getattr(ism, "ALGORITHM_VERSION", None))
+    # Seconds per room: kept on disk per machine by default, shared by workers, Dask workers and the report.
+    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs), persistent=True)
 
 
 def _calibrate(dims, target: np.ndarray, profile: np.ndarray, bands, air, c, fs) -> np.ndarray:
