@@ -387,8 +387,12 @@ def estimate_lag(a, b, *, max_lag) -> int:
     a = _as_1d(a, "a")
     b = _as_1d(b, "b")
     max_lag = check_int("max_lag", max_lag, minimum=0)
-    nfft = 1 << int(math.ceil(math.log2(a.size + b.size)))
-    corr = np.fft.irfft(np.fft.rfft(a, nfft) * np.conj(np.fft.rfft(b, nfft)), nfft)
+    from scipy import fft as sfft
+
+    # Lags up to max_lag only: a circular correlation of length >= max(size) + max_lag has no
+    # wrap-around at them (a fast length, not the full 2n power of two: 2-3x less work).
+    nfft = sfft.next_fast_len(max(a.size, b.size) + min(max_lag, max(a.size, b.size)) + 1, real=True)
+    corr = sfft.irfft(sfft.rfft(a, nfft) * np.conj(sfft.rfft(b, nfft)), nfft)
     # corr[k] = sum_n a[n + k] b[n]; negative lags wrap to the end of the buffer.
     lags = np.arange(-max_lag, max_lag + 1)
     lags = lags[(lags < a.size) & (lags > -b.size)]

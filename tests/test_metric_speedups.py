@@ -35,3 +35,33 @@ def test_narrowband_check_is_cached_per_signal_and_recomputed_for_another():
     assert M.is_narrowband(narrow, 16000) and not M.is_narrowband(wide, 16000)
     for x in (wide, narrow, wide.copy(), narrow.copy()):
         assert M._is_narrowband_cached(x, 16000) == M.is_narrowband(x, 16000)
+
+
+@pytest.mark.parametrize(("na", "nb", "max_lag", "delay"), [(5000, 5000, 300, 37), (4000, 5000, 800, -250),
+                                                          (6001, 3000, 50, 0), (3000, 6001, 2999, 1200)])
+def test_estimate_lag_equals_the_direct_correlation(na, nb, max_lag, delay):
+    # Oracle: the direct sum over every lag (np.correlate, no FFT, no wrap-around possible).
+    rng = np.random.default_rng(na + nb)
+    b = rng.standard_normal(nb)
+    a = np.roll(np.pad(b, (0, max(0, na - nb)))[:na], delay) + 0.5 * rng.standard_normal(na)
+    full = np.correlate(a, b, mode="full")  # full[k + nb - 1] = sum_n a[n + k] b[n]
+    lags = np.arange(-max_lag, max_lag + 1)
+    lags = lags[(lags < na) & (lags > -nb)]
+    want = int(lags[np.argmax(np.abs(full[lags + nb - 1]))])
+    assert M.estimate_lag(a, b, max_lag=max_lag) == want
+
+
+def test_estimate_lag_has_no_wrap_around_peak():
+    # a's last 50 samples copy b's first 50: only a circular correlation sees a match at lag -50
+    # (the true lag of that copy, 950, is outside the search); the direct sum is the oracle.
+    rng = np.random.default_rng(5)
+    b = np.zeros(1000)
+    b[:100] = rng.standard_normal(100)
+    a = np.zeros(1000)
+    a[20:120] = b[:100]  # the real match at lag +20
+    a[950:] = 3 * b[:50]  # a stronger circular-only match at lag -50
+    full = np.correlate(a, b, mode="full")
+    lags = np.arange(-100, 101)
+    want = int(lags[np.argmax(np.abs(full[lags + 999]))])
+    assert want == 20
+    assert M.estimate_lag(a, b, max_lag=100) == want

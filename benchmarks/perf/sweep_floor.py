@@ -27,15 +27,21 @@ printed before each sweep: CPU time is robust to load, wall time is not.
 
 from __future__ import annotations
 
-import argparse
 import os
-import resource
-import statistics
-import tempfile
-import time
-from pathlib import Path
 
-import numpy as np
+# As the CLI does (benchmarks/cli/main.py), before numpy is imported: one BLAS thread, or a
+# second thread spinning on a loaded machine counts as the sweep's CPU time.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import resource  # noqa: E402
+import statistics  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 
 def cpu_now() -> float:
