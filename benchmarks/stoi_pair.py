@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+
 def _pystoi_module():
     """The module ``pystoi.stoi`` (its constants); ``pystoi.stoi`` as an attribute is the function."""
     import importlib

@@ -183,7 +183,9 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
         raise ParameterError("rt60_s", rt60_s, allowed)
     for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
         sabine_absorption(float(t), dims, c=c)
-    from scenesim import ism  # the renderer whose RIRs are measured: its version is part of the result
+    from scenesim import (
+        ism,  # the renderer whose RIRs are measured: its version is part of the result
+    )
 
     key = array_key("room-calibration", CALIBRATION_VERSION, dims=dims, rt60_s=target.tolist(), profile=profile,
                     bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS,
