@@ -211,9 +211,15 @@ def input_metrics(rendered, *, speech_parts=None, reference: str = "direct") -> 
 
 def _band_snr_db(s, n, fs: int, band) -> float:
     """SNR in dB of ``s`` over ``n`` within ``band`` (Hz), an ideal band-pass on both."""
-    from scenesim.mixing import bandlimit
+    return M.band_snr_db(s, n, fs=fs, band_hz=band)
 
-    return M.snr_db(bandlimit(s, fs, band), bandlimit(n, fs, band))
+
+def _input_band_snr(row, errors, s0, n0, m: int, fs: int, band):
+    """The input's in-band SNR over its first ``m`` samples: the condition's own
+    ``snr_in_band_db`` when ``m`` is the whole signal (no latency), else computed."""
+    if m == s0.size and row.get("snr_in_band_db") is not None:
+        return row["snr_in_band_db"]
+    return _try(errors, "snr_in_band", _band_snr_db, s0[:m], n0[:m], fs, band)
 
 
 _input_metrics = input_metrics  # evaluate_enhancer's keyword of the same name shadows it
@@ -434,7 +440,7 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row["snr_i_db"] = _delta(row["snr_out_db"], snr_in)
         band = inband_hz(rendered)
         row["snr_out_band_db"] = _try(errors, "snr_out_band", _band_snr_db, s_al, n_al, fs, band)
-        band_in = _try(errors, "snr_in_band", _band_snr_db, s0[:m], n0[:m], fs, band)
+        band_in = _input_band_snr(row, errors, s0, n0, m, fs, band)
         row["snr_i_band_db"] = _delta(row["snr_out_band_db"], band_in)
         hag, result2 = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"]) or (None, None)
         row["snr_out_hagerman_db"] = hag

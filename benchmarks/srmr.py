@@ -27,6 +27,8 @@ package computes it without torch or an unpublished gammatone fork.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import signal as sps
 
@@ -86,11 +88,17 @@ def gammatone_sos(cf_hz: float, fs: int) -> np.ndarray:
     return sos
 
 
+@functools.lru_cache(maxsize=8)
+def _gammatone_bank(fs: int) -> tuple[np.ndarray, ...]:
+    """The 23 gammatone filters at ``fs``, highest band first: designed once per rate, not per call."""
+    return tuple(gammatone_sos(cf, fs) for cf in erb_centre_freqs(fs))  # sosfilt only reads them
+
+
 def _envelopes(x: np.ndarray, fs: int) -> np.ndarray:
     """Hilbert envelopes ``(23, n16)`` of the gammatone bands, highest band first."""
     bands = np.empty((N_COCHLEAR, x.size))
-    for i, cf in enumerate(erb_centre_freqs(fs)):
-        bands[i] = sps.sosfilt(gammatone_sos(cf, fs), x)
+    for i, sos in enumerate(_gammatone_bank(int(fs))):
+        bands[i] = sps.sosfilt(sos, x)
     n_fft = int(np.ceil(x.size / 16) * 16)
     return np.abs(sps.hilbert(bands, N=n_fft, axis=-1))
 

@@ -32,6 +32,7 @@ stage traces under ``"<prefix>.<key>"`` (``"eb.beta"``, ``"ss.gain"``) and
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import re
 import sys
@@ -282,8 +283,8 @@ class Chain(Enhancer):
         hops = [h for h in (hop_of(s) for s in self._stages) if h]
         return math.lcm(*hops) if hops else None
 
-    @property
-    def tags(self) -> Tags:
+    @functools.cached_property
+    def tags(self) -> Tags:  # stages and their params are fixed at construction (cached: read per block)
         tags = [s.tags for s in self._stages]
         supported = None
         for t in tags:

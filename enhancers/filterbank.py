@@ -173,7 +173,14 @@ class FilterBank:
         """
         n, r, q = self.frame_len, self.hop, self._q
         n_ch, n_fr = Y.shape[0], Y.shape[1]
-        if n_fr:
+        if n_fr == 1:  # streaming at the hop: one frame, no accumulator (the same sums)
+            frame = np.fft.irfft(Y[:, 0], n=n, axis=-1) * self.synthesis_window
+            if q * r != n:
+                frame = np.concatenate([frame, np.zeros((n_ch, q * r - n))], axis=-1)
+            frame[:, : (q - 1) * r] += state.ola
+            queue = np.concatenate([state.queue, frame[:, :r]], axis=-1)
+            ola = frame[:, r:]
+        elif n_fr:
             frames = np.fft.irfft(Y, n=n, axis=-1) * self.synthesis_window
             if q * r != n:
                 frames = np.concatenate([frames, np.zeros((n_ch, n_fr, q * r - n))], axis=-1)

@@ -145,16 +145,21 @@ def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_
         sb = smooth_frames(eB, floor_lam, state.sb)
         rf = (sf + TINY) / (sb + TINY)
         sf, sb = sf[-1].copy(), sb[-1].copy()
-    ref = np.full_like(r, min(cap, 1.0))
     hist = state.hist
     if n_window > 1:
         if hist is None:
             hist = np.full((n_window - 1, r.shape[1]), np.inf)
-        full = np.concatenate([hist, rf], axis=0)
-        ref = np.minimum(_running_min(full, n_window), cap)
-        hist = full[full.shape[0] - (n_window - 1):].copy()
+        if rf.shape[0] == 1:  # streaming at the hop: the window's minimum directly, one copy of the history
+            ref = np.minimum(np.minimum(hist.min(axis=0), rf[0]), cap)[None]
+            hist = np.concatenate([hist[1:], rf], axis=0)
+        else:
+            full = np.concatenate([hist, rf], axis=0)
+            ref = np.minimum(_running_min(full, n_window), cap)
+            hist = full[full.shape[0] - (n_window - 1):].copy()
     elif n_window == 1:
         ref = np.minimum(rf, cap)
+    else:
+        ref = np.full_like(r, min(cap, 1.0))
     return r > ref * 10.0 ** (gate_db / 10.0), GateState(pf=pf[-1].copy(), pb=pb[-1].copy(), sf=sf, sb=sb, hist=hist)
 
 

@@ -20,8 +20,11 @@ The absorption is varied by scaling a profile in the log-reflection domain,
 alpha in (0, 1) and the profile's shape.  ``s`` starts from Eyring, then follows
 ``T_measured / T_target`` and secant steps on ``log T`` vs ``log s``; it stops within
 :data:`CALIBRATION_TOLERANCE` (1 %), at most :data:`CALIBRATION_MAX_ITER` measurements per
-band.  Results are memoised with :func:`scenesim.cache.cached_array` (memory, and disk when
-``$SCENESIM_CACHE`` is set).
+band.  Results are memoised with :func:`scenesim.cache.cached_array` in memory and on disk:
+in ``$SCENESIM_CACHE``, or by default the user's cache directory
+(:func:`scenesim.memo.user_cache_dir`), so a room is calibrated once per machine (keyed by
+everything that changes it, the ISM's ``ALGORITHM_VERSION`` included); ``SCENESIM_CACHE=``
+(empty) keeps it in memory only.
 
 Diffuse reflections: the loop renders with the room's wall scattering (default
 :data:`scenesim.scattering.DEFAULT_SCATTERING`, 0.5), so the fitted absorption is the one
@@ -186,10 +189,16 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
         raise ParameterError("rt60_s", rt60_s, allowed)
     for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
         sabine_absorption(float(t), dims, c=c)
+    from scenesim import (
+        ism,  # the renderer whose RIRs are measured: its version is part of the result
+    )
+
     scat = ShoeBox(dims, 0.5, bands_hz=bands, scattering=scattering).scattering  # validated
     key = array_key("room-calibration", CALIBRATION_VERSION, dims=dims, rt60_s=target.tolist(), profile=profile,
-                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS, scattering=scat)
-    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs, scat))
+                    bands_hz=bands, air=air, c=c, fs=fs, placements=CALIBRATION_PLACEMENTS, scattering=scat,
+                    ism_version=getattr(ism, "ALGORITHM_VERSION", None))
+    # Seconds per room: kept on disk per machine by default, shared by workers, Dask workers and the report.
+    return cached_array(key, lambda: _calibrate(dims, target, profile, bands, air, c, fs, scat), persistent=True)
 
 
 def _band_scattering(scattering, bands, b):

@@ -87,9 +87,22 @@ def stable_hash(value) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def _cache_dir(cache_dir) -> Path | None:
+def user_cache_dir() -> Path:
+    """The per-user cache directory: ``$XDG_CACHE_HOME/scenesim``, else ``~/.cache/scenesim``.
+
+    >>> user_cache_dir().name
+    'scenesim'
+    """
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "scenesim"
+
+
+def _cache_dir(cache_dir, *, persistent: bool = False) -> Path | None:
     if cache_dir is None:
-        cache_dir = os.environ.get(ENV_VAR) or None
+        env = os.environ.get(ENV_VAR)
+        if env is None and persistent:
+            return user_cache_dir()
+        cache_dir = env or None
     return None if cache_dir is None else Path(cache_dir)
 
 
@@ -123,7 +136,7 @@ def array_key(kind: str, version, **params) -> str:
     return stable_hash({"format": CACHE_FORMAT_ARRAY, "kind": kind, "version": version, "params": params})
 
 
-def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None) -> np.ndarray:
+def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None, persistent: bool = False) -> np.ndarray:
     """``compute()`` memoised under ``key``; returns a fresh copy.
 
     Looks ``key`` up in the in-memory LRU, then in ``<dir>/<key>.npy`` (``cache_dir``, else
@@ -141,6 +154,10 @@ def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None)
         Called on a miss; its result is stored as a read-only float/int array.
     cache_dir : path, optional
         Disk cache directory; default ``$SCENESIM_CACHE``.
+    persistent : bool
+        For arrays worth keeping per machine (calibrated rooms: seconds each): with
+        ``$SCENESIM_CACHE`` unset, use :func:`user_cache_dir` rather than no disk level
+        (``SCENESIM_CACHE=`` empty still disables the disk).
 
     Returns
     -------
@@ -154,7 +171,7 @@ def cached_array(key: str, compute: Callable[[], np.ndarray], *, cache_dir=None)
         if hit is not None:
             _memory.move_to_end(key)
             return hit.copy()
-    directory = _cache_dir(cache_dir)
+    directory = _cache_dir(cache_dir, persistent=persistent)
     path = None if directory is None else directory / f"{key}.npy"
     if path is not None and path.is_file():
         try:
