@@ -10,11 +10,10 @@ from __future__ import annotations
 import contextlib
 import math
 import warnings
-from math import gcd
 
 import numpy as np
-from scipy.signal import resample_poly
 
+from scenesim.audio import resample
 from scenesim.errors import MetricError, ParameterError
 from scenesim.validate import check_fs, check_int, check_positive
 
@@ -164,13 +163,6 @@ def si_sdr_db(reference, estimate) -> float:
 # -- perceptual metrics ------------------------------------------------------------------
 
 
-def _resample(x: np.ndarray, fs_from: int, fs_to: int) -> np.ndarray:
-    if fs_from == fs_to:
-        return x
-    g = gcd(fs_from, fs_to)
-    return resample_poly(x, fs_to // g, fs_from // g)
-
-
 def _check_not_silent(x: np.ndarray, name: str, metric: str) -> None:
     if float(np.max(np.abs(x))) < SILENCE_PEAK:
         raise MetricError(f"{metric}: the {name} signal is silent")
@@ -226,8 +218,8 @@ def pesq_scores(reference, degraded, *, fs) -> dict[str, float | None]:
             f"PESQ needs at least {PESQ_MIN_S} s of signal; got {ref.size / fs:.3f} s"
         )
     fs_pesq = 16000 if fs >= 16000 else 8000
-    ref = _resample(ref, fs, fs_pesq)
-    deg = _resample(deg, fs, fs_pesq)
+    ref = resample(ref, fs, fs_pesq)  # the one resampling wrapper (scenesim.audio)
+    deg = resample(deg, fs, fs_pesq)
     nb = _pesq_one(fs_pesq, ref, deg, "nb")
     wb = None
     if fs_pesq == 16000:

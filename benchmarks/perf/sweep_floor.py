@@ -98,12 +98,12 @@ class Recorder:
 def _pesq_floor(data) -> float:
     from pesq.cypesq import cypesq
 
-    from benchmarks.metrics import _resample
+    from scenesim.audio import resample
 
     fs = int(data["fs"])
     fs_pesq = 16000 if fs >= 16000 else 8000
-    ref = _resample(np.asarray(data["ref"], dtype=np.float64), fs, fs_pesq)
-    deg = _resample(np.asarray(data["deg"], dtype=np.float64), fs, fs_pesq)
+    ref = resample(np.asarray(data["ref"], dtype=np.float64), fs, fs_pesq)
+    deg = resample(np.asarray(data["deg"], dtype=np.float64), fs, fs_pesq)
     peak = max(np.max(np.abs(ref)), np.max(np.abs(deg)))
     r, d = (ref / peak).astype(np.float32), (deg / peak).astype(np.float32)
     c0 = time.process_time()
