@@ -170,7 +170,7 @@ def _wind(n: int, fs: int, rng: np.random.Generator):
     (-24 dB/octave) left almost no wind in the speech band.  Multiplied by a gust envelope
     ``exp(0.6 g(t))`` where ``g`` is unit-variance noise low-passed at 0.5 Hz (gusts of a
     few seconds).  Channels are independent; the spatial coherence of wind between two
-    mics is the scene's job (:func:`scenesim.noise_fields.wind_noise`, Corcos model).
+    mics is the scene's job (:func:`scenesim.scene.noise_fields.wind_noise`, Corcos model).
     """
     slope_db_per_decade = 10.0 * 7.0 / 3.0
     x = _shape_spectrum(

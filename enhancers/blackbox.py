@@ -11,7 +11,7 @@ batch and streaming outputs are identical.  Samples of a last, incomplete frame 
 never sent to the library; the output keeps the input's length.
 
 Black boxes cannot replay their operation on a component (``tags.replayable`` False):
-the benchmark measures them by phase inversion (``benchmarks.evaluate``: outputs for
+the benchmark measures them by phase inversion (``benchmarks.metrics.evaluate``: outputs for
 ``s + n`` and ``s - n``).  They need no declared conformance expected failures: the
 replay checks apply only to replayable enhancers, and every other check (streaming ==
 batch, state isolation, determinism, silence, pickling of the enhancer) holds because the

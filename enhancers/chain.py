@@ -45,7 +45,7 @@ import numpy as np
 from enhancers.base import Enhancer, Params, Result, Tags, check_component
 from enhancers.registry import get_spec
 from scenesim.errors import ParameterError
-from scenesim.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS
+from scenesim.scene.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS
 from scenesim.validate import check_positive
 
 __all__ = ["Chain", "ChainParams", "EbSs", "chain_class", "hop_of"]

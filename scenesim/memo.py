@@ -2,7 +2,7 @@
 
 :func:`cached_array` memoises ``compute()`` under a key from :func:`array_key` (or
 :func:`stable_hash`) -- the babble bank, the bias-compensation tables, room impulse
-responses (:mod:`scenesim.cache` builds its ISM cache on it).  The key is the sha256 of a
+responses (:mod:`scenesim.room.cache` builds its ISM cache on it).  The key is the sha256 of a
 canonical JSON document (sorted keys, floats by their shortest exact ``repr``, tuples as
 lists) of every parameter plus a format/version tag -- so it is stable across processes
 and runs (no Python ``hash()``); see style.md lesson 12.

@@ -98,7 +98,7 @@ def check_signal(
 
 
 #: Physical ranges of scene quantities, ``quantity -> (lo, hi, unit, why)``: one table read by
-#: the sweep parser (``benchmarks.sweep``) and the CLI (``simulate``, ``rir``, ``enhance``), so
+#: the sweep parser (``benchmarks.run.sweep``) and the CLI (``simulate``, ``rir``, ``enhance``), so
 #: a value refused in one place is refused everywhere with the same range.
 PHYSICAL_RANGES: dict[str, tuple[float, float, str, str]] = {
     # 80 dB is beyond the float resolution of a mixture; -50 dB leaves no speech to enhance.

@@ -14,7 +14,7 @@ import pytest
 # Headless plots everywhere in the suite.
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-# The disk cache (scenesim.cache, data recipes) goes to a fresh directory for the whole
+# The disk cache (scenesim.room.cache, data recipes) goes to a fresh directory for the whole
 # session, never to the user's ~/.cache/scenesim -- unless the tester chose one.
 if "SCENESIM_CACHE" not in os.environ:
     os.environ["SCENESIM_CACHE"] = tempfile.mkdtemp(prefix="scenesim-test-cache-")

@@ -1,7 +1,7 @@
 """Slow, obviously-correct image-source reference: a triple loop and a scalar windowed sinc.
 
 Written straight from algorithms.md section 3 (Allen & Berkley 1979; Peterson 1986), sharing
-no code with ``scenesim.ism``: every image (i, j, k) with |i| + |j| + |k| <= N is visited,
+no code with ``scenesim.room.ism``: every image (i, j, k) with |i| + |j| + |k| <= N is visited,
 its position and per-wall hit counts computed, and an 80-tap Hann-windowed sinc centred on
 its true delay added tap by tap.  Used by tests as the oracle for the vectorised renderer.
 """
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-HALF_WIDTH = 40  # window support |t| < 40 samples, as documented for scenesim.ism
+HALF_WIDTH = 40  # window support |t| < 40 samples, as documented for scenesim.room.ism
 
 
 def _kernel(t: float) -> float:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenesim.air import AirAbsorption, air_gain, attenuation_db_per_m
 from scenesim.errors import ParameterError
+from scenesim.room.air import AirAbsorption, air_gain, attenuation_db_per_m
 
 # ISO 9613-2:1996 Table 2 (computed by ISO 9613-1 at exact octave midband frequencies, 101.325 kPa),
 # dB/km, octaves 63 Hz .. 8 kHz.

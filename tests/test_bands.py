@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenesim.air import AirAbsorption
-from scenesim.bands import (
+from scenesim.errors import ParameterError
+from scenesim.room.air import AirAbsorption
+from scenesim.room.bands import (
     OCTAVE_CENTERS_HZ,
     active_bands,
     band_weights,
@@ -15,10 +16,9 @@ from scenesim.bands import (
     octave_rt60,
     split_bands,
 )
-from scenesim.errors import ParameterError
-from scenesim.ism import image_source_rir
-from scenesim.render import band_rirs, room_rir
-from scenesim.room import ShoeBox
+from scenesim.room.ism import image_source_rir
+from scenesim.room.render import band_rirs, room_rir
+from scenesim.room.shoebox import ShoeBox
 
 FS = 16000
 
@@ -116,8 +116,8 @@ def test_scene_renders_a_banded_room_with_air():
     called directly, bit-identical; the speech image is that RIR convolved, 1e-9 of its peak)."""
     from scipy import signal as sps
 
-    from scenesim.geometry import MicPair
-    from scenesim.scene import Scene, SourcePlacement, render_images
+    from scenesim.scene.compose import Scene, SourcePlacement, render_images
+    from scenesim.scene.geometry import MicPair
 
     room = ShoeBox((4.0, 3.5, 2.8), (0.1, 0.15, 0.25, 0.35, 0.45, 0.55, 0.6), bands_hz=OCTAVE_CENTERS_HZ,
                    air=AirAbsorption(temperature_c=22, humidity_pct=45))

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import soundfile
 
-from benchmarks import metrics as M
+from benchmarks.metrics import speech as M
 from enhancers.blackbox import FramedBlackBox
 from enhancers.testing import stream
 
@@ -59,7 +59,7 @@ def _level_db(x):
 
 
 def _phase_inversion_snr_i(e, s, n):
-    """SNR improvement measured as the benchmark measures black boxes (benchmarks.evaluate)."""
+    """SNR improvement measured as the benchmark measures black boxes (benchmarks.metrics.evaluate)."""
     L, start = e.tags.latency_samples, 2 * FS
     y1, y2 = e.process(s + n, FS).output, e.process(s - n, FS).output
     s_out, n_out = 0.5 * (y1 + y2), 0.5 * (y1 - y2)

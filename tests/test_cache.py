@@ -1,4 +1,4 @@
-"""scenesim.cache.cached_array and its users (babble bank, MS1994 bias compensation).
+"""scenesim.room.cache.cached_array and its users (babble bank, MS1994 bias compensation).
 
 Oracles: a call counter on ``compute`` (computed once, then loaded), the recomputed value
 itself (bit-identical, ``assert_array_equal``: the cache stores exactly what was computed),
@@ -13,8 +13,8 @@ import pytest
 
 from data_recipes import noise_synthesis
 from enhancers import noise_tracking
-from scenesim import cache
 from scenesim.errors import ParameterError
+from scenesim.room import cache
 
 
 def _fresh_process() -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from scenesim import calibration
 from scenesim.memo import clear_memory_cache
+from scenesim.room import calibration
 
 
 def _no_compute(*args, **kwargs):

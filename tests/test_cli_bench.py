@@ -8,7 +8,7 @@ import pytest
 from _bench_smoke import local_smoke_run
 
 from benchmarks.cli.main import main
-from benchmarks.sweep import load_sweep
+from benchmarks.run.sweep import load_sweep
 
 
 def _rows(out):

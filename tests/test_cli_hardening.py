@@ -109,7 +109,7 @@ def _garbage_store(path: Path) -> None:
 
 
 def _undecodable_store(path: Path) -> None:
-    from benchmarks.store import ResultStore
+    from benchmarks.store.sqlite import ResultStore
 
     with ResultStore(path) as store:
         # Bytes that are not UTF-8 in a text column every command reads (the condition id).
@@ -188,7 +188,7 @@ def test_three_channel_file_names_three_channels_and_suggests_two(tmp_path, rng,
 
 
 def test_dask_hint_is_an_install_command_that_works_from_a_checkout(monkeypatch):
-    from benchmarks.executors import DaskExecutor, ExecutorError
+    from benchmarks.run.executors import DaskExecutor, ExecutorError
 
     monkeypatch.setitem(sys.modules, "distributed", None)  # makes `import distributed` fail
     with pytest.raises(ExecutorError) as info:
@@ -342,12 +342,12 @@ def test_simulate_source_on_a_mic_names_the_distance_option(tmp_path, capsys):
 
 def test_rir_refuses_to_write_a_non_finite_rir(tmp_path, monkeypatch, capsys):
     # Defence in depth behind the 1 mm rule: whatever makes the renderer return NaN, no file.
-    import scenesim.render
+    import scenesim.room.render
 
     def nan_rir(*args, **kwargs):
         return np.full((2, 100), np.nan)
 
-    monkeypatch.setattr(scenesim.render, "room_rir", nan_rir)
+    monkeypatch.setattr(scenesim.room.render, "room_rir", nan_rir)
     assert main([*RIR_ROOM, *PAIR, "--source", "1", "1", "1", "--out", str(tmp_path)]) == 2
     _one_error_line(capsys, "a finite RIR")
     assert not (tmp_path / "rir.npy").exists() and not (tmp_path / "rir.json").exists()

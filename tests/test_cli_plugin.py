@@ -17,7 +17,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 from benchmarks.cli.main import main
-from benchmarks.plugin_scaffold import new_plugin
+from benchmarks.cli.plugin_scaffold import new_plugin
 from enhancers import registry
 from enhancers.testing import check_enhancer
 

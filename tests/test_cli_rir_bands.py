@@ -43,8 +43,8 @@ def test_rir_band_rt60_is_calibrated(tmp_path):
     assert rc == 0
     meta = json.loads((out / "rir.json").read_text())
     assert meta["target_rt60_s"] == [float(t) for t in targets]
-    from scenesim.bands import OCTAVE_CENTERS_HZ
-    from scenesim.calibration import calibrate_room
+    from scenesim.room.bands import OCTAVE_CENTERS_HZ
+    from scenesim.room.calibration import calibrate_room
 
     room = calibrate_room((5, 4, 3), tuple(map(float, targets)), bands_hz=OCTAVE_CENTERS_HZ)
     np.testing.assert_array_equal(np.asarray(meta["wall_absorption"]), room.wall_absorption)

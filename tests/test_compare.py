@@ -13,8 +13,8 @@ from scipy import stats
 
 import benchmarks
 from benchmarks.cli.main import main
-from benchmarks.compare import SweepMismatch, compare_rows, paired_ci
-from benchmarks.store import CONTRACT_COLUMNS, ResultStore
+from benchmarks.report.compare import SweepMismatch, compare_rows, paired_ci
+from benchmarks.store.sqlite import CONTRACT_COLUMNS, ResultStore
 from scenesim.errors import ScenesimError
 
 SEEDS = (0, 1, 2, 3, 4)
@@ -138,8 +138,8 @@ def test_load_results_without_pandas_names_the_install(stores, monkeypatch):
 
 def _with_config(path, **changes):
     """Record the smoke sweep's config (with ``changes`` to its axes) as the store's sweep."""
-    from benchmarks.sweep import load_sweep
-    from benchmarks.versioning import META_CONFIG, sweep_config
+    from benchmarks.run.sweep import load_sweep
+    from benchmarks.run.versioning import META_CONFIG, sweep_config
 
     config = sweep_config(load_sweep("smoke"))
     config["axes"].update(changes)

@@ -10,9 +10,9 @@ import pytest
 import soundfile as sf
 
 from benchmarks.cli.main import main
-from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 from scenesim.errors import ParameterError
-from scenesim.room import ShoeBox
+from scenesim.room.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
+from scenesim.room.shoebox import ShoeBox
 
 
 def _random_scene(seed: int):

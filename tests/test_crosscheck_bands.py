@@ -11,13 +11,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenesim.air import AirAbsorption, attenuation_db_per_m
-from scenesim.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
-from scenesim.room import ShoeBox
+from scenesim.room.air import AirAbsorption, attenuation_db_per_m
+from scenesim.room.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
+from scenesim.room.shoebox import ShoeBox
 
 pytest.importorskip("pyroomacoustics")
 
-from scenesim.crosscheck_bands import (  # noqa: E402 - needs pyroomacoustics
+from scenesim.room.crosscheck_bands import (  # noqa: E402 - needs pyroomacoustics
     compare_bands_with_pyroomacoustics,
     pyroomacoustics_air_table,
 )
@@ -54,13 +54,13 @@ def test_air_effect_is_seen_by_the_crosscheck():
     """The air case must differ from the air-free room by far more than the tolerance at 8 kHz
     (so the comparison above can fail): over 0.5 dB of octave energy here."""
     with_air = ShoeBox((6, 5, 3), 0.15, air=AirAbsorption(temperature_c=20, humidity_pct=40))
-    from scenesim.crosscheck_bands import pyroomacoustics_band_rir
-    from scenesim.render import room_rir
+    from scenesim.room.crosscheck_bands import pyroomacoustics_band_rir
+    from scenesim.room.render import room_rir
 
     theirs = pyroomacoustics_band_rir(with_air, SRC, MICS, fs=16000, max_order=15)
     ours_no_air = room_rir(ShoeBox((6, 5, 3), 0.15), SRC, MICS, fs=16000, max_order=15,
                            length_s=theirs.shape[1] / 16000, highpass_hz=None)
-    from scenesim.bands import octave_filter
+    from scenesim.room.bands import octave_filter
 
     n = min(theirs.shape[1], ours_no_air.shape[1])
     e = [np.sum(octave_filter(x[0, :n], 16000, 8000.0) ** 2) for x in (ours_no_air, theirs)]

@@ -20,7 +20,7 @@ import pytest
 from _bench_smoke import local_smoke_run
 
 from benchmarks.cli.main import main
-from benchmarks.sweep import load_sweep
+from benchmarks.run.sweep import load_sweep
 
 pytest.importorskip("distributed", reason="dask[distributed] is in the dev extra")
 

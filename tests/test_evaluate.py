@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from benchmarks.evaluate import INPUT_COLUMNS, ROW_COLUMNS, evaluate_enhancer, input_metrics
+from benchmarks.metrics.evaluate import INPUT_COLUMNS, ROW_COLUMNS, evaluate_enhancer, input_metrics
 from enhancers.base import Enhancer, Params, Result, Tags
 from scenesim.validate import check_finite_number, check_int
 
@@ -19,7 +19,7 @@ FS = 16000
 
 @dataclass(frozen=True)
 class StandInScene:
-    """Same fields as ``scenesim.scene.RenderedScene`` (what evaluate needs)."""
+    """Same fields as ``scenesim.scene.compose.RenderedScene`` (what evaluate needs)."""
 
     mixture: np.ndarray
     speech_image: np.ndarray
@@ -206,7 +206,7 @@ def test_front_mic_passthrough_has_zero_snr_improvement(scene, scene_inputs):
 
 def test_unchanged_output_reuses_the_input_scores_without_scoring_again(scene, scene_inputs, monkeypatch):
     # Oracle: identical signals get identical scores; the scorer is not called for them.
-    import benchmarks.metrics as M
+    import benchmarks.metrics.speech as M
 
     calls = []
     real = M.pesq_scores
@@ -298,7 +298,7 @@ def test_real_scene_and_builtin_enhancers_give_complete_rows():
     every frequency when d = c/fs), so its SNR-I is large -- bound 10 dB (thesis: 12.7-20.5).
     """
     from enhancers.registry import make, with_geometry
-    from scenesim.scene import Scene, render_images
+    from scenesim.scene.compose import Scene, render_images
 
     scene = Scene(snr_db=5.0)  # speech 45 deg, one point noise at 270 deg, anechoic
     rendered = render_images(scene, _speech_like(None, seconds=3.0), [None]).mix(5.0)
@@ -345,7 +345,7 @@ def test_hagerman_column_equals_replay_for_linear_and_differs_for_nonlinear(scen
 
 def test_in_band_snr_columns(scene, scene_inputs):
     # Oracle: powers of the ideal band-pass by Parseval, computed here independently.
-    from benchmarks.evaluate import INBAND_HZ
+    from benchmarks.metrics.evaluate import INBAND_HZ
 
     s0, n0 = np.asarray(scene.speech_image)[0], np.asarray(scene.noise_image)[0]
     f = np.fft.rfftfreq(s0.size, 1 / scene.fs)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from scenesim.errors import ParameterError
-from scenesim.fractional_delay import (
+from scenesim.scene.fractional_delay import (
     DEFAULT_N_TAPS,
     delay_signal,
     fractional_delay_filter,

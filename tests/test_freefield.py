@@ -10,9 +10,14 @@ import numpy as np
 import pytest
 
 from scenesim.errors import ParameterError
-from scenesim.fractional_delay import DEFAULT_N_TAPS
-from scenesim.freefield import plane_wave, plane_wave_delays, point_source, point_source_geometry
-from scenesim.geometry import MicPair
+from scenesim.scene.fractional_delay import DEFAULT_N_TAPS
+from scenesim.scene.freefield import (
+    plane_wave,
+    plane_wave_delays,
+    point_source,
+    point_source_geometry,
+)
+from scenesim.scene.geometry import MicPair
 
 FS = 16000
 C = 343.0

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from benchmarks.cli.main import build_parser
-from benchmarks.sweep import PARAMETERS, parse_sweep
+from benchmarks.run.sweep import PARAMETERS, parse_sweep
 
 README = (Path(__file__).resolve().parents[1] / "README.md").read_text("utf-8")
 
@@ -38,7 +38,7 @@ def test_readme_pair_spacing_is_the_default_spacing():
 
 
 def test_readme_listening_default_is_the_code_default():
-    from benchmarks.listening import DEFAULT_LISTEN_COUNT
+    from benchmarks.report.listening import DEFAULT_LISTEN_COUNT
 
     assert DEFAULT_LISTEN_COUNT == _readme_number(r"By default (\d+) conditions spread over")
 
@@ -54,8 +54,8 @@ def test_a_sweep_at_8_khz_runs_and_scores_narrowband(tmp_path):
     # fs = 8000 is a supported rate no preset uses: run ss on it end to end.  Oracles: the row
     # says 8 kHz, the measured input SNR is the asked 5 dB (tolerance 0.1 dB: the mixing rule),
     # narrow-band PESQ is scored and wide-band PESQ is not (P.862.2 needs 16 kHz).
-    from benchmarks.runner import run_sweep
-    from benchmarks.store import ResultStore
+    from benchmarks.run.runner import run_sweep
+    from benchmarks.store.sqlite import ResultStore
 
     sweep = parse_sweep('[axes]\nenhancers = ["ss"]\nnoise = ["white"]\nsnr_db = [5]\n'
                         "[fixed]\nfs = 8000\nduration_s = 3.0\n")

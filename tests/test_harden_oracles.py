@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenesim.reverb_parts import rir_acoustics
+from scenesim.room.reverb_parts import rir_acoustics
 
 FS = 16000
 
@@ -57,7 +57,7 @@ def test_wind_convection_delay_matches_the_travel_time_of_frozen_turbulence(flow
     # pair is coherent (|gamma| > 0.7); tolerance 3 samples of the expected +-85.6.
     from scipy import signal as sps
 
-    from scenesim.noise_fields import CONVECTION_RATIO, wind_noise
+    from scenesim.scene.noise_fields import CONVECTION_RATIO, wind_noise
 
     d, speed = 0.0214, 5.0
     x = wind_noise(30 * FS, d, fs=FS, wind_speed_mps=speed, flow_azimuth_deg=flow_deg, rng=np.random.default_rng(5))
@@ -73,10 +73,10 @@ def test_wind_convection_delay_matches_the_travel_time_of_frozen_turbulence(flow
 
 def test_moving_source_default_rir_length_is_the_documented_one():
     # Default path (neither length_s nor max_order): 1.2 x RT60 + the longest direct path of
-    # the trajectory (scenesim.ism.default_length_s, from the farthest path point), written
+    # the trajectory (scenesim.room.ism.default_length_s, from the farthest path point), written
     # out here from the documented rule; tolerance one tap (rounding).
-    from scenesim.moving import render_moving_source
-    from scenesim.room import ShoeBox
+    from scenesim.room.moving import render_moving_source
+    from scenesim.room.shoebox import ShoeBox
 
     room = ShoeBox((4.0, 5.0, 3.0), rt60_s=0.2)
     mics = np.array([[2.0, 2.5, 1.5], [2.02, 2.5, 1.5]])
@@ -92,7 +92,7 @@ def test_tolerance_draws_are_independent_between_the_mics():
     # Each mic's sensitivity (and corner) is its own uniform draw in nominal +- tol: over 400
     # phones the front/rear correlation is ~N(0, 1/20) (|r| < 0.2 is 4 sigma), each marginal
     # has the uniform's variance tol^2 / 3 (+-15 %), and no phone has equal gains.
-    from scenesim.sensors import SensorModel, SensorTolerance
+    from scenesim.scene.sensors import SensorModel, SensorTolerance
 
     tol = SensorTolerance(gain_tol_db=1.0, highpass_tol_hz=20.0)
     nominal = SensorModel.from_mismatch(highpass_hz=100.0)
@@ -114,8 +114,8 @@ def test_hybrid_tail_coherence_follows_the_diffuse_law_at_several_frequencies():
     # <= 0.02 with 16 seeds; the 1.23 kHz minimum, -0.21, measured -0.12, is not asserted).
     from scipy import signal as sps
 
-    from scenesim.ism import image_source_rir
-    from scenesim.room import ShoeBox
+    from scenesim.room.ism import image_source_rir
+    from scenesim.room.shoebox import ShoeBox
 
     d, c = 0.2, 343.0
     room = ShoeBox((6.0, 5.0, 3.0), rt60_s=0.6)
@@ -135,13 +135,13 @@ def test_hybrid_tail_coherence_follows_the_diffuse_law_at_several_frequencies():
 
 
 def test_band_snr_measured_by_an_independent_estimator():
-    # The scene sets the SNR in 100 Hz - 7 kHz with scenesim.mixing.bandlimit; measure it here
+    # The scene sets the SNR in 100 Hz - 7 kHz with scenesim.scene.mixing.bandlimit; measure it here
     # with Welch PSDs (Hann, 4096 points, 3.9 Hz bins) summed over the band's bins -- no
     # bandlimit.  A noise mostly below 60 Hz makes the band edge matter.  Tolerance 0.2 dB
     # (Welch bias and the half-bins at the edges).
     from scipy import signal as sps
 
-    from scenesim.scene import NoiseSource, Scene, render_scene
+    from scenesim.scene.compose import NoiseSource, Scene, render_scene
 
     rng = np.random.default_rng(11)
     n = 4 * FS

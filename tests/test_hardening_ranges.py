@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from benchmarks.cli.main import main
-from benchmarks.sweep import parse_sweep
+from benchmarks.run.sweep import parse_sweep
 from scenesim.errors import ConfigError
 from scenesim.validate import PHYSICAL_RANGES, physical_range_text
 
@@ -106,13 +106,13 @@ def test_rir_refuses_an_rt60_past_the_physical_range(tmp_path, capsys):
 
 
 def test_rir_warns_before_a_slow_render_like_bench_run(tmp_path, capsys, monkeypatch):
-    import scenesim.render
+    import scenesim.room.render
     from scenesim.errors import ScenesimError
 
     def stop(*args, **kwargs):  # the render would take ~18 min: stop where it would start
         raise ScenesimError("render reached")
 
-    monkeypatch.setattr(scenesim.render, "room_rir", stop)
+    monkeypatch.setattr(scenesim.room.render, "room_rir", stop)
     assert main([*RIR, "--rt60", "8", "--out", str(tmp_path / "o")]) == 2
     warning, error = capsys.readouterr().err.strip().splitlines()
     assert warning.startswith("scenesim: warning: RT60 8 s") and "min to render" in warning

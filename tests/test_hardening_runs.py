@@ -23,13 +23,13 @@ def _run(tmp_path, capsys, monkeypatch=None, n_failed=0):
     failed instead (a worker's crash cannot be forced from here: workers are separate processes)."""
     import dataclasses
 
-    import benchmarks.runner as runner
+    import benchmarks.run.runner as runner
 
     real = runner.run_sweep
 
     def failing(sweep, out, **kwargs):
         summary = real(sweep, out, **kwargs)
-        from benchmarks.store import ResultStore
+        from benchmarks.store.sqlite import ResultStore
 
         with ResultStore.open(out) as store:
             rows = store.rows("run_id = ?", (summary.run_id,))[:n_failed]
@@ -169,8 +169,8 @@ def test_a_killed_runs_row_is_marked_when_its_stale_lock_is_cleared(tmp_path, ca
     import json
     import sqlite3
 
-    from benchmarks.lock import LOCK_NAME
-    from benchmarks.store import ResultStore
+    from benchmarks.run.lock import LOCK_NAME
+    from benchmarks.store.sqlite import ResultStore
 
     out = tmp_path / "out"
     out.mkdir()
@@ -187,7 +187,7 @@ def test_a_killed_runs_row_is_marked_when_its_stale_lock_is_cleared(tmp_path, ca
 def test_progress_says_a_block_is_computing_before_the_first_condition_finishes():
     import io
 
-    from benchmarks.progress import LineProgress
+    from benchmarks.run.progress import LineProgress
 
     progress = LineProgress(6, "s", stream=io.StringIO())
     assert "the first block of conditions is computing" in progress.line()
@@ -201,8 +201,8 @@ def test_load_results_on_a_real_sweeps_store(tmp_path, capsys):
     import sqlite3
 
     pytest.importorskip("pandas")
-    from benchmarks.results_frame import load_results
-    from benchmarks.store import COLUMNS
+    from benchmarks.store.frame import load_results
+    from benchmarks.store.sqlite import COLUMNS
 
     rc, _ = _run(tmp_path, capsys)
     assert rc == 0

@@ -15,10 +15,10 @@ import pytest
 from _bench_smoke import local_smoke_run
 from headless_browser import find_chromium, inspect_page
 
-from benchmarks import metrics as M
 from benchmarks.cli.main import main
-from benchmarks.html_report import markdown_to_html, write_index
-from benchmarks.listening import (
+from benchmarks.metrics import speech as M
+from benchmarks.report.html import markdown_to_html, write_index
+from benchmarks.report.listening import (
     TARGET_LEVEL_DBFS,
     ListenOptions,
     choose_conditions,
@@ -26,9 +26,9 @@ from benchmarks.listening import (
     match_loudness,
     render_condition,
 )
-from benchmarks.store import ResultStore
+from benchmarks.store.sqlite import ResultStore
 from scenesim.errors import ParameterError
-from scenesim.mixing import active_speech_power
+from scenesim.scene.mixing import active_speech_power
 
 #: Where the browser test keeps its screenshot (a temporary folder, never the repository);
 #: ``$SCENESIM_ARTIFACTS`` overrides.
@@ -156,7 +156,7 @@ def test_match_loudness_gives_equal_active_levels_and_a_common_peak_limit(rng):
 def test_audio_falls_back_to_16_bit_wav_without_vorbis(monkeypatch):
     import soundfile
 
-    from benchmarks.listening import audio_format
+    from benchmarks.report.listening import audio_format
 
     monkeypatch.setattr(soundfile, "available_subtypes", lambda fmt=None: {"VORBIS": "Vorbis"})
     assert audio_format() == ("ogg", "OGG", "VORBIS")

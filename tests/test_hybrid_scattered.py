@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from scenesim.air import AirAbsorption
-from scenesim.bands import OCTAVE_CENTERS_HZ, octave_rt60
-from scenesim.calibration import calibrate_room
-from scenesim.render import room_rir
-from scenesim.room import ShoeBox
+from scenesim.room.air import AirAbsorption
+from scenesim.room.bands import OCTAVE_CENTERS_HZ, octave_rt60
+from scenesim.room.calibration import calibrate_room
+from scenesim.room.render import room_rir
+from scenesim.room.shoebox import ShoeBox
 
 FS = 16000
 CENTERS = OCTAVE_CENTERS_HZ[:6]  # 125 Hz-4 kHz

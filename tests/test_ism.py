@@ -10,14 +10,14 @@ from ism_reference import reference_rir
 from scipy import signal
 
 from scenesim.errors import ParameterError
-from scenesim.ism import (
+from scenesim.room.ism import (
     SINC_HALF_WIDTH,
     image_count_l1,
     image_source_rir,
     image_sources,
     windowed_sinc,
 )
-from scenesim.room import ShoeBox
+from scenesim.room.shoebox import ShoeBox
 
 PER_WALL = (0.12, 0.35, 0.5, 0.21, 0.7, 0.05)
 

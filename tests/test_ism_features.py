@@ -10,14 +10,14 @@ import pytest
 from ism_reference import reference_rir
 from scipy import signal
 
-from scenesim import ism
-from scenesim.directivity import Directivity
 from scenesim.errors import ParameterError
-from scenesim.hybrid import expected_energy
-from scenesim.ism import image_source_rir, image_source_rir_bands, image_sources
-from scenesim.ism_bands import band_weights, merge_bands
-from scenesim.room import ShoeBox
-from scenesim.rt60 import measure_rt60
+from scenesim.room import ism
+from scenesim.room.directivity import Directivity
+from scenesim.room.hybrid import expected_energy
+from scenesim.room.ism import image_source_rir, image_source_rir_bands, image_sources
+from scenesim.room.ism_bands import band_weights, merge_bands
+from scenesim.room.rt60 import measure_rt60
+from scenesim.room.shoebox import ShoeBox
 
 PER_WALL = (0.12, 0.35, 0.5, 0.21, 0.7, 0.05)
 PAIR_SPACING_M = 0.0214
@@ -162,7 +162,7 @@ def test_cardioid_matches_pyroomacoustics(p, az, el):
     (max_order 8), per-wall absorption.  Omni agreement of the two renderers is ~2e-3 relative
     L2 (kernel lookup table); measured 2.2e-3..3.0e-3 here while the directivity itself changes
     the RIR by 0.5..0.9 relative L2.  Tolerance 5e-3 relative L2 per mic."""
-    from scenesim.crosscheck_directivity import compare_directivity_with_pyroomacoustics
+    from scenesim.room.crosscheck_directivity import compare_directivity_with_pyroomacoustics
 
     room = ShoeBox((5.0, 4.0, 3.0), PER_WALL)
     chk = compare_directivity_with_pyroomacoustics(
@@ -176,7 +176,7 @@ def test_cardioid_matches_pyroomacoustics(p, az, el):
 def test_talker_front_back_ratio():
     """Talker pattern: front/back gain ratio per octave equals TALKER_FRONT_BACK_DB (1e-9 dB);
     omni-ish at 125 Hz, > 10 dB at 4 kHz."""
-    from scenesim.directivity import TALKER_FRONT_BACK_DB
+    from scenesim.room.directivity import TALKER_FRONT_BACK_DB
 
     d = Directivity.talker(azimuth_deg=90.0)
     g = d.gains(np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]))
@@ -228,7 +228,7 @@ def test_hybrid_early_part_identical(full_and_hybrid):
 
 
 def test_hybrid_t30_edt_within_5_percent(full_and_hybrid):
-    """Oracle: the full ISM's T30 and EDT (20 Hz high-passed, scenesim.rt60) at RT60 1.0 s, both
+    """Oracle: the full ISM's T30 and EDT (20 Hz high-passed, scenesim.room.rt60) at RT60 1.0 s, both
     mics.  Tolerance 5 % (the brief's); measured -3.7 % (T30) and -1.9 % (EDT) on mic 0 for seed 0
     (over seeds 0-7: T30 -4.2..-2.7 %, EDT -3.7..+0.8 %)."""
     full, hyb, fs = full_and_hybrid

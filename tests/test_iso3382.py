@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from scenesim.iso3382 import (
+from scenesim.room.iso3382 import (
     clarity_db,
     definition_d50,
     diffuse_clarity_db,
@@ -49,7 +49,7 @@ def test_c50_of_an_exponential_equals_the_diffuse_field_far_away():
 def test_broadband_t30_and_edt_of_an_exponential(rt60):
     # A pure exponential's Schroeder curve is a straight line: T30 = EDT = T (1e-3 relative:
     # the geometric tail beyond 4 T is below -240 dB).
-    from scenesim.rt60 import measure_rt60
+    from scenesim.room.rt60 import measure_rt60
 
     h = _exp_decay(rt60, 4 * int(rt60 * FS), onset=100)
     onset = onset_sample(h)

@@ -41,10 +41,10 @@ def test_bench_list_states_pesq_terms(capsys):
 def test_importing_the_packages_does_not_import_pyroomacoustics():
     # A fresh interpreter: -X importtime lists every module imported; pyroomacoustics (and its
     # own heavy imports) must appear only when a cross-check runs.
-    code = "import scenesim, enhancers, benchmarks, data_recipes, benchmarks.cli.main, benchmarks.runner"
+    code = "import scenesim, enhancers, benchmarks, data_recipes, benchmarks.cli.main, benchmarks.run.runner"
     proc = subprocess.run(
         [sys.executable, "-X", "importtime", "-c", code], capture_output=True, text=True, cwd=ROOT, check=True
     )
     imported = {line.rsplit("|", 1)[-1].strip() for line in proc.stderr.splitlines() if "|" in line}
-    assert "scenesim" in imported and "benchmarks.runner" in imported  # the listing is real
+    assert "scenesim" in imported and "benchmarks.run.runner" in imported  # the listing is real
     assert not any(m.split(".")[0] == "pyroomacoustics" for m in imported)

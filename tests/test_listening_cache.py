@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks import listening
-from benchmarks.runner import run_sweep
-from benchmarks.store import ResultStore
+from benchmarks.report import listening
+from benchmarks.run.runner import run_sweep
+from benchmarks.store.sqlite import ResultStore
 from scenesim.memo import clear_memory_cache
 
 

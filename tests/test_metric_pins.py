@@ -27,7 +27,7 @@ from importlib import metadata
 import numpy as np
 import pytest
 
-from benchmarks.metrics import pesq_scores, stoi_scores
+from benchmarks.metrics.speech import pesq_scores, stoi_scores
 from data_recipes.artificial_voice import artificial_voice
 
 FS = 16000
@@ -136,7 +136,7 @@ def test_estoi_is_repeatable_and_leaves_the_global_rng_alone(pair):
 def test_wideband_pesq_labelled_on_speech_upsampled_from_8k(pair, recwarn):
     from scipy.signal import resample_poly
 
-    from benchmarks.metrics import NarrowbandWarning, is_narrowband
+    from benchmarks.metrics.speech import NarrowbandWarning, is_narrowband
 
     reference, degraded = pair
     up_ref = resample_poly(resample_poly(reference, 1, 2), 2, 1)  # 16 k -> 8 k -> 16 k

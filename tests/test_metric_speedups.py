@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks import metrics as M
-from scenesim.mixing import bandlimit
+from benchmarks.metrics import speech as M
+from scenesim.scene.mixing import bandlimit
 
 
 def _slow_band_snr(s, n, fs, band):
-    # The former definition: full-length brick-wall band-pass (scenesim.mixing.bandlimit), then powers.
+    # The former definition: full-length brick-wall band-pass (scenesim.scene.mixing.bandlimit), then powers.
     return M.snr_db(bandlimit(s, fs, band), bandlimit(n, fs, band))
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from benchmarks.metrics import (
+from benchmarks.metrics.speech import (
     align,
     estimate_lag,
     pesq_scores,
@@ -216,7 +216,7 @@ def test_estimate_lag_limits_the_search(rng):
 def test_raw_p862_from_mos_lqo_round_trip_and_range():
     # Oracle: ITU-T P.862.1's mapping and its stated output range (raw -0.5..4.5 maps to
     # MOS-LQO 1.02..4.55); outside the mapping's range the raw score is clipped.
-    from benchmarks.metrics import pesq_raw_from_mos_lqo
+    from benchmarks.metrics.speech import pesq_raw_from_mos_lqo
 
     raw = np.linspace(-0.4, 4.4, 49)
     lqo = 0.999 + 4 / (1 + np.exp(-1.4945 * raw + 4.6607))

@@ -3,8 +3,8 @@ while a near-field talker speaks.
 
 Oracle: the mismatch applied by ``mismatch.apply_mismatch`` (rear mic times 10^(g/20) e^{j phi} and
 first-order high-passes H(f) = jf/(fc + jf) per mic); its exact response ratio ``mismatch.rear_response``.
-Fields: ``scenesim.noise_fields.diffuse_noise`` (sinc coherence), ``signals.plane_wave_pair`` (exact
-delays), ``scenesim.freefield.point_source`` (near-field talker, 1/(4 pi R) and exact distances).
+Fields: ``scenesim.scene.noise_fields.diffuse_noise`` (sinc coherence), ``signals.plane_wave_pair`` (exact
+delays), ``scenesim.scene.freefield.point_source`` (near-field talker, 1/(4 pi R) and exact distances).
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from signals import FS, SPACING_M, plane_wave_pair
 
 from data_recipes.artificial_voice import artificial_voice
 from enhancers.registry import make
-from scenesim.freefield import point_source
-from scenesim.geometry import MicPair
-from scenesim.noise_fields import diffuse_noise
+from scenesim.scene.freefield import point_source
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.noise_fields import diffuse_noise
 
 MISMATCH = dict(gain_db=1.0, phase_deg=5.0, highpass_hz=(80.0, 120.0))
 F_HZ = np.arange(129) * FS / 256
@@ -194,7 +194,7 @@ def test_estimate_ignores_the_talker(partner):
     of that span has ``speech_jitter_db = -inf``.  (Later frames may differ: the rules' decisions after the
     hold still see the talker's residue in their smoothers, a threshold flip in a few noise-only cells --
     measured -69 dB of jitter over the 6 s here, -58 dB with the rules of before.)"""
-    from benchmarks.distortion import speech_jitter_db
+    from benchmarks.metrics.distortion import speech_jitter_db
 
     r1, r2, s = _two_runs(partner, **TALKER_BLIND)
     m = FIRST_BURST_DONE

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from scenesim.errors import ParameterError
-from scenesim.mixing import (
+from scenesim.scene.mixing import (
     P56_HANGOVER_S,
     active_speech_power,
     mix_at_snr,

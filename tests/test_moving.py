@@ -7,9 +7,9 @@ import pytest
 from scipy import signal as ss
 
 from scenesim.errors import ParameterError
-from scenesim.ism import image_source_rir
-from scenesim.moving import crossfade_windows, path_positions, render_moving_source
-from scenesim.room import ShoeBox
+from scenesim.room.ism import image_source_rir
+from scenesim.room.moving import crossfade_windows, path_positions, render_moving_source
+from scenesim.room.shoebox import ShoeBox
 
 FS = 16000
 ROOM = ShoeBox((5.0, 4.0, 3.0), 0.5)

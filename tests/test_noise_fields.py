@@ -14,8 +14,8 @@ import pytest
 from scipy import signal as sps
 
 from scenesim.errors import ParameterError
-from scenesim.geometry import MicPair
-from scenesim.noise_fields import (
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.noise_fields import (
     diffuse_noise,
     incoherent_noise,
     independent_channels,

@@ -9,9 +9,11 @@ from __future__ import annotations
 import numpy as np
 
 from data_recipes import open_data
-from scenesim.cache import cached_rir
-from scenesim.geometry import MicPair
-from scenesim.noise_hall import (
+from scenesim.room.cache import cached_rir
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import NoiseSource, Scene, render_images
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.noise_hall import (
     HALL_DIMS_M,
     HALL_MIN_DISTANCE_M,
     HALL_PAIR_M,
@@ -19,8 +21,6 @@ from scenesim.noise_hall import (
     hall_noise,
     hall_positions,
 )
-from scenesim.room import ShoeBox
-from scenesim.scene import NoiseSource, Scene, render_images
 
 FS = 16000
 

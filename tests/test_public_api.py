@@ -71,8 +71,8 @@ def test_lower_layers_do_not_import_higher_ones():
 
 def test_sensor_model_fixed_names():
     # contract.md "Added fixed names": sweep keys, simulate flags, presets, result columns.
-    from benchmarks.store import COLUMNS
-    from benchmarks.sweep import PRESETS, parse_sweep
+    from benchmarks.run.sweep import PRESETS, parse_sweep
+    from benchmarks.store.sqlite import COLUMNS
 
     sweep = parse_sweep(
         '[axes]\nenhancers = ["passthrough"]\nnoise = ["wind"]\nsnr_db = [0]\n[fixed]\n'
@@ -96,8 +96,8 @@ def test_sensor_model_fixed_names():
 def test_added_fixed_names_of_the_robust_eb_reverberation_and_peers_issues():
     # contract.md "Added fixed names": enhancers, presets, result columns, hybrid ISM, commands.
     import benchmarks
-    from benchmarks.store import COLUMNS
-    from benchmarks.sweep import PRESETS
+    from benchmarks.run.sweep import PRESETS
+    from benchmarks.store.sqlite import COLUMNS
 
     names = enhancers.available()
     for name in ("eb-subband", "mic-calibration", "eb-robust", "eb-robust-ss", "mmse-lsa",
@@ -113,7 +113,7 @@ def test_added_fixed_names_of_the_robust_eb_reverberation_and_peers_issues():
 def test_fixed_names_of_the_learned_peer_dereverberation_and_dnsmos_issue():
     # Issue 19: enhancers (listed even when their extra is missing), DNSMOS columns, score command.
     from benchmarks.cli.main import build_parser
-    from benchmarks.store import COLUMNS
+    from benchmarks.store.sqlite import COLUMNS
 
     names = enhancers.available()
     for name in ("dfn3", "eb-robust-dfn3", "wpe", "wpe-eb-robust", "wpe-eb-robust-ss"):

@@ -9,9 +9,9 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from benchmarks import thesis_reference as T
-from benchmarks.report import write_report
-from benchmarks.report_tables import aggregate, ci95_halfwidth, mean_std, normalise_rows
+from benchmarks.report.core import write_report
+from benchmarks.report.tables import aggregate, ci95_halfwidth, mean_std, normalise_rows
+from benchmarks.thesis import reference as T
 
 SYSTEMS = ("eb", "ss", "eb-ss")
 #: What a row at the thesis' exact conditions records besides the angles (far field, the

@@ -8,12 +8,12 @@ import json
 import matplotlib.figure
 import pytest
 
-from benchmarks import figures
-from benchmarks import thesis_reference as T
-from benchmarks.listening import ListenOptions
-from benchmarks.report import write_report
-from benchmarks.report_tables import drawn_keys
-from benchmarks.sweep import PRESETS, load_sweep, stratified
+from benchmarks.report import figures
+from benchmarks.report.core import write_report
+from benchmarks.report.listening import ListenOptions
+from benchmarks.report.tables import drawn_keys
+from benchmarks.run.sweep import PRESETS, load_sweep, stratified
+from benchmarks.thesis import reference as T
 
 N_SEEDS = 2
 
@@ -129,7 +129,7 @@ def _check_in_browser(report):
 def test_clipped_intervals_are_marked(outlier, marked, drawn, tmp_path):
     # Oracle: STOI of five seeds 0.99, 0.99, 0.99, 0.99, x; with x = 0.2 the t-interval
     # (0.83 +- 0.44) leaves [0, 1] and is clipped, with x = 0.97 it stays inside.
-    from benchmarks import figures
+    from benchmarks.report import figures
 
     rows = [dict(enhancer="eb", noise="babble", seed=s, snr_in_db=0.0, snr_i_db=1.0 + s, pesq_nb_raw_out=2.0,
                  stoi_out=outlier if s == 4 else 0.99) for s in range(5)]  # fmt: skip

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.signal import firwin, lfilter
 
-from benchmarks.report_measures import (
+from benchmarks.report.measures import (
     SELF_NOISE_TEXT,
     drop_leaky_hagerman,
     measures_section,

@@ -1,4 +1,4 @@
-"""Reverberation report sections from synthetic rows (benchmarks/report_reverb.py)."""
+"""Reverberation report sections from synthetic rows (benchmarks/report/reverb.py)."""
 
 import json
 import math
@@ -6,8 +6,8 @@ import math
 import pytest
 from scipy import stats
 
-from benchmarks.report import write_report
-from benchmarks.report_reverb import (
+from benchmarks.report.core import write_report
+from benchmarks.report.reverb import (
     drr_zero_crossing_m,
     reverb_rows,
     reverb_sections,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from benchmarks.report import write_report
-from benchmarks.report_sensors import HAGERMAN_FLAG_DB, honesty_flags, phone_summary
+from benchmarks.report.core import write_report
+from benchmarks.report.sensors import HAGERMAN_FLAG_DB, honesty_flags, phone_summary
 
 PHONE_COND = json.dumps({"mic_gain_tol_db": 1.0, "mic_highpass_hz": [100, 100], "mic_highpass_tol_hz": 30,
                          "self_noise_dba": 30, "speech_spl_db": 65, "noise_az_range_deg": [100, 260]})  # fmt: skip

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 
-from benchmarks.report_tradeoff import tradeoff_records, tradeoff_section
+from benchmarks.report.tradeoff import tradeoff_records, tradeoff_section
 
 
 def _rows():

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from benchmarks.html_report import markdown_to_html
-from benchmarks.report import write_report
-from benchmarks.report_tables import MIN_T_SEEDS, aggregate, metric_range, stat_cell
-from benchmarks.report_verdicts import diff_cell, paired_verdicts, rank_tiers
-from benchmarks.sweep import load_sweep, stratified
+from benchmarks.report.core import write_report
+from benchmarks.report.html import markdown_to_html
+from benchmarks.report.tables import MIN_T_SEEDS, aggregate, metric_range, stat_cell
+from benchmarks.report.verdicts import diff_cell, paired_verdicts, rank_tiers
+from benchmarks.run.sweep import load_sweep, stratified
 
 
 def _rows(n_seeds=6, *, gain=1.5, spread=1.0):
@@ -129,7 +129,7 @@ def test_bench_run_seeds_and_limit_from_the_command_line(tmp_path):
     """``--seeds 3 --limit 3`` on smoke (2 noises x 2 SNRs): three conditions, three seeds, both
     noises and both SNRs -- the seed list is replaced without editing TOML."""
     from benchmarks.cli.main import main
-    from benchmarks.store import ResultStore
+    from benchmarks.store.sqlite import ResultStore
 
     out = tmp_path / "s"
     argv = ["bench", "run", "smoke", "--seeds", "3", "--limit", "3", "--workers", "1", "--no-report", "--out", str(out)]

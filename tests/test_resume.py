@@ -10,7 +10,7 @@ import sys
 import time
 
 from benchmarks.cli.main import main
-from benchmarks.sweep import load_sweep
+from benchmarks.run.sweep import load_sweep
 
 # Long enough to be caught mid-run (8 conditions), short per unit (1 s signals, no babble
 # synthesis), so the whole test takes seconds.

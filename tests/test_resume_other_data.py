@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from benchmarks import worker
-from benchmarks.runner import run_sweep
-from benchmarks.store import ResultStore
-from benchmarks.sweep import parse_sweep
+from benchmarks.run import worker
+from benchmarks.run.runner import run_sweep
+from benchmarks.run.sweep import parse_sweep
+from benchmarks.store.sqlite import ResultStore
 from data_recipes.artificial_voice import artificial_voice
 
 FS = 16000

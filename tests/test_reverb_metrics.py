@@ -1,18 +1,18 @@
-"""SINR / DRR / C50 / SRMR columns from the speech parts (benchmarks/reverb_metrics.py)."""
+"""SINR / DRR / C50 / SRMR columns from the speech parts (benchmarks/metrics/reverb.py)."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from benchmarks import metrics as M
-from benchmarks.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
-from benchmarks.reverb_metrics import theory_drr_c50_db
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
+from benchmarks.metrics.reverb import theory_drr_c50_db
 from enhancers.registry import make, with_geometry
-from scenesim.geometry import MicPair
-from scenesim.reverb_parts import speech_parts
-from scenesim.room import ShoeBox
-from scenesim.scene import NoiseSource, Scene, SourcePlacement, render_images
+from scenesim.room.reverb_parts import speech_parts
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images
+from scenesim.scene.geometry import MicPair
 
 FS = 16000
 

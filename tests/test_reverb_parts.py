@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from scenesim.geometry import MicPair
-from scenesim.reverb_parts import critical_distance_m, rir_acoustics, speech_parts, split_rir
-from scenesim.room import ShoeBox
-from scenesim.scene import Scene, SourcePlacement, render_images
-from scenesim.sensors import SensorModel
+from scenesim.room.reverb_parts import critical_distance_m, rir_acoustics, speech_parts, split_rir
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import Scene, SourcePlacement, render_images
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.sensors import SensorModel
 
 FS = 16000
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from scenesim.errors import ParameterError
-from scenesim.room import ShoeBox
-from scenesim.rt60 import eyring_rt60, sabine_rt60
+from scenesim.room.rt60 import eyring_rt60, sabine_rt60
+from scenesim.room.shoebox import ShoeBox
 
 
 def test_derived_values():

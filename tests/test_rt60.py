@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scenesim.errors import ParameterError
-from scenesim.rt60 import (
+from scenesim.room.rt60 import (
     eyring_absorption,
     eyring_rt60,
     measure_rt60,

@@ -21,10 +21,10 @@ from types import SimpleNamespace
 import pytest
 
 from benchmarks.cli.main import main
-from benchmarks.lock import LOCK_NAME, RunLockedError, run_lock
-from benchmarks.progress import LineProgress, estimated_rir_seconds, slow_rir_warning
-from benchmarks.signals import RunInterrupted, Terminated, interrupted
-from benchmarks.watchdog import process_alive
+from benchmarks.run.lock import LOCK_NAME, RunLockedError, run_lock
+from benchmarks.run.progress import LineProgress, estimated_rir_seconds, slow_rir_warning
+from benchmarks.run.signals import RunInterrupted, Terminated, interrupted
+from benchmarks.run.watchdog import process_alive
 
 linux_only = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
 
@@ -83,7 +83,7 @@ def test_process_alive_treats_an_unreaped_zombie_as_dead():
 
 _ORPHAN_SCRIPT = """
 import os, sys, time
-from benchmarks.watchdog import exit_when_orphaned
+from benchmarks.run.watchdog import exit_when_orphaned
 pid = os.fork()
 if pid == 0:  # the 'worker': watches its parent, the 'driver'
     exit_when_orphaned(os.getppid(), interval_s=0.1)
@@ -201,7 +201,7 @@ def test_kill_9_leaves_no_orphan_processes(tmp_path):
 
 @pytest.mark.skipif(not hasattr(signal, "SIGALRM"), reason="needs SIGALRM")
 def test_interrupt_terminates_busy_workers_instead_of_waiting_for_them():
-    from benchmarks.executors import LocalExecutor
+    from benchmarks.run.executors import LocalExecutor
 
     ex = LocalExecutor(workers=1)
     old = signal.signal(signal.SIGALRM, signal.default_int_handler)  # SIGALRM -> KeyboardInterrupt

@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from benchmarks import worker
-from benchmarks.runner import (
+from benchmarks.run import worker
+from benchmarks.run.runner import (
     ConditionTask,
     EnhancerSpec,
     UnitTask,
@@ -18,8 +18,8 @@ from benchmarks.runner import (
     run_sweep,
     run_unit,
 )
-from benchmarks.store import ResultStore
-from benchmarks.sweep import parse_sweep
+from benchmarks.run.sweep import parse_sweep
+from benchmarks.store.sqlite import ResultStore
 from scenesim.errors import ConfigError, DataError, ParameterError
 
 # 1 s of speech keeps each unit well under a second (PESQ/STOI scale with length).

@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from scenesim.calibration import calibrate_room
-from scenesim.iso3382 import diffuse_field_parameters, room_parameters
-from scenesim.render import room_rir
-from scenesim.room import ShoeBox
-from scenesim.rt60 import eyring_rt60
-from scenesim.scattering import scattered_energy
+from scenesim.room.calibration import calibrate_room
+from scenesim.room.iso3382 import diffuse_field_parameters, room_parameters
+from scenesim.room.render import room_rir
+from scenesim.room.rt60 import eyring_rt60
+from scenesim.room.scattering import scattered_energy
+from scenesim.room.shoebox import ShoeBox
 
 FS = 8000
 C = 343.0
@@ -19,8 +19,8 @@ C = 343.0
 
 def _specular_level(dims, reflection, scattering, t):
     """The specular field's expected h^2 summed over directions (the model's own e_s, closed form)."""
-    from scenesim.hybrid import _octant_directions
-    from scenesim.scattering import _N_DIR
+    from scenesim.room.hybrid import _octant_directions
+    from scenesim.room.scattering import _N_DIR
 
     u, w = _octant_directions(_N_DIR, _N_DIR)
     keep = np.asarray(reflection) ** 2 * (1 - np.asarray(scattering))
@@ -94,7 +94,7 @@ ROOMS = {  # rooms the calibration never saw, with placements drawn independentl
 def test_calibrated_rooms_sound_like_their_rt60(name):
     """The issue's targets with the defaults (scattering 0.5): at two placements the loop never
     used, speech-octave (500 Hz-2 kHz) T30 within 10 % of the target, EDT within 20 %, C50 within
-    2 dB of Sabine's diffuse-field value (ISO 3382 definitions, scenesim.iso3382).  Without
+    2 dB of Sabine's diffuse-field value (ISO 3382 definitions, scenesim.room.iso3382).  Without
     scattering the same rooms missed EDT by 29-60 % (issue 18)."""
     dims, target, profile = ROOMS[name]
     room = calibrate_room(dims, target, absorption=profile)
@@ -119,7 +119,7 @@ def test_against_pyroomacoustics_ray_tracing_in_a_near_diffuse_room():
     measured T30 -3..+5 %, speech EDT +8 %; one placement's octave EDT scatters more).  Not used
     in corridors: there its scattered energy,
     not re-traced (pyroomacoustics issue #415), makes it decay faster than Eyring."""
-    from scenesim.crosscheck_scattering import compare_scattering_with_pyroomacoustics
+    from scenesim.room.crosscheck_scattering import compare_scattering_with_pyroomacoustics
 
     room = ShoeBox((8.0, 6.0, 3.0), 0.19, scattering=0.5)
     chk = compare_scattering_with_pyroomacoustics(room, (1.0, 1.5, 1.5), [(5.0, 3.5, 1.4)], fs=16000)

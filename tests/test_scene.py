@@ -1,6 +1,6 @@
 """Scenes: keys, determinism, free-field and room rendering, mixing, the RIR cache.
 
-Oracles are named per test: scipy.signal.fftconvolve with scenesim.ism.image_source_rir
+Oracles are named per test: scipy.signal.fftconvolve with scenesim.room.ism.image_source_rir
 called directly (room images), the plane-wave law (broadside equality), the SNR
 definition recomputed with numpy, linear superposition, and a fresh subprocess for
 key stability.
@@ -17,20 +17,20 @@ import numpy as np
 import pytest
 from scipy import signal as sps
 
-from scenesim import cache
 from scenesim.errors import ParameterError
-from scenesim.freefield import plane_wave, point_source
-from scenesim.geometry import MicPair
-from scenesim.ism import image_source_rir
-from scenesim.noise_fields import diffuse_noise
-from scenesim.room import ShoeBox
-from scenesim.scene import (
+from scenesim.room import cache
+from scenesim.room.ism import image_source_rir
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import (
     NoiseSource,
     Scene,
     SourcePlacement,
     render_images,
     render_scene,
 )
+from scenesim.scene.freefield import plane_wave, point_source
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.noise_fields import diffuse_noise
 
 FS = 16000
 N = FS  # 1 s signals keep the suite fast
@@ -91,7 +91,7 @@ def test_same_scene_same_key_and_every_field_changes_it():
 def test_key_is_stable_across_processes():
     # Oracle: a fresh interpreter with a different hash seed computes the same key.
     code = (
-        "from scenesim.scene import Scene, NoiseSource;"
+        "from scenesim.scene.compose import Scene, NoiseSource;"
         "print(Scene(snr_db=5, noises=(NoiseSource(field='diffuse'),)).key())"
     )
     env = dict(os.environ, PYTHONHASHSEED="12345")
@@ -146,7 +146,7 @@ def test_absolute_position_gives_the_same_far_field_image_as_its_angles(speech, 
 @pytest.mark.parametrize("snr_db", [-5.0, 0.0, 20.0])
 def test_rendered_snr_equals_target(speech, noise, mode, snr_db):
     # Oracle: 10 log10(P_s / P_n) at channel 0 recomputed; tolerance 0.01 dB.
-    from scenesim.mixing import active_speech_power
+    from scenesim.scene.mixing import active_speech_power
 
     r = render_scene(Scene(snr_db=snr_db, snr_mode=mode), speech, [noise])
     p_s = (
@@ -236,7 +236,7 @@ def test_room_speech_image_is_speech_convolved_with_the_ism_rir(speech, noise):
     scene = small_room_scene()
     r = render_scene(scene, speech, [noise])
     src = scene.pair.source_position(45.0, 1.0)
-    # Scenes render through scenesim.render.room_rir: the ISM RIR with a 20 Hz high-pass by default.
+    # Scenes render through scenesim.room.render.room_rir: the ISM RIR with a 20 Hz high-pass by default.
     h = image_source_rir(scene.room, src, scene.pair.positions_m, fs=FS, max_order=3, highpass_hz=20.0)
     # Oracle: scipy.signal.fftconvolve with the ISM's RIR; tolerance 1e-9 of the peak.
     expected = sps.fftconvolve(speech[None, :], h, axes=1)[:, :N]

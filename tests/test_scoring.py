@@ -1,4 +1,4 @@
-"""The public metrics API (benchmarks.scoring) and ``scenesim score`` end to end on generated WAV files."""
+"""The public metrics API (benchmarks.metrics.scoring) and ``scenesim score`` end to end on generated WAV files."""
 
 from __future__ import annotations
 
@@ -10,16 +10,16 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from benchmarks import metrics as M
 from benchmarks.cli.main import main
-from benchmarks.scoring import (
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.scoring import (
     INTRUSIVE,
     NON_INTRUSIVE,
     pesq_wb_raw_from_mos_lqo,
     score,
     score_files,
 )
-from benchmarks.srmr import srmr
+from benchmarks.metrics.srmr import srmr
 
 FS = 16000
 
@@ -38,7 +38,7 @@ def pair(rng):
 
 
 def test_score_matches_the_metric_functions_it_reuses(pair):
-    """Oracle: the functions of benchmarks.metrics and benchmarks.srmr called directly (exact equality)."""
+    """Oracle: the functions of benchmarks.metrics.speech and benchmarks.metrics.srmr called directly (exact equality)."""
     clean, noisy = pair
     row = score(noisy, FS, reference=clean, dnsmos=False)
     p = M.pesq_scores(clean, noisy, fs=FS)

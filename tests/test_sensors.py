@@ -15,8 +15,8 @@ from scipy import signal as sps
 import enhancers
 from enhancers.differential import mismatch_null_depth_db
 from scenesim.errors import ParameterError
-from scenesim.scene import NoiseSource, Scene, SourcePlacement, render_images, render_scene
-from scenesim.sensors import (
+from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images, render_scene
+from scenesim.scene.sensors import (
     MicResponse,
     SensorModel,
     SensorTolerance,

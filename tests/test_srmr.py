@@ -1,4 +1,4 @@
-"""SRMR (benchmarks/srmr.py) against an outside implementation and physical expectations.
+"""SRMR (benchmarks/metrics/srmr.py) against an outside implementation and physical expectations.
 
 Oracle 1 (outside implementation): SRMRpy (github.com/jfsantos/SRMRpy, commit fee0097,
 ``srmr(x, 16000, fast=False)`` with the PyPI ``gammatone`` 1.0.3 filterbank), run once on the
@@ -14,7 +14,7 @@ Oracle 2 (torchmetrics' implementation), only when torch and torchmetrics are in
 import numpy as np
 import pytest
 
-from benchmarks.srmr import _frame_energies, gammatone_sos, modulation_energy, srmr
+from benchmarks.metrics.srmr import _frame_energies, gammatone_sos, modulation_energy, srmr
 from scenesim.errors import ParameterError
 
 FS = 16000

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from pystoi import stoi
 
-from benchmarks.metrics import stoi_scores
-from benchmarks.stoi_pair import stoi_estoi
+from benchmarks.metrics.speech import stoi_scores
+from benchmarks.metrics.stoi_pair import stoi_estoi
 
 
 def _pair(rng, fs: int, n: int, noise: float):

@@ -7,8 +7,8 @@ import sqlite3
 import numpy as np
 import pytest
 
-from benchmarks import evaluate
-from benchmarks.store import COLUMNS, CONTRACT_COLUMNS, ResultStore
+from benchmarks.metrics import evaluate
+from benchmarks.store.sqlite import COLUMNS, CONTRACT_COLUMNS, ResultStore
 from scenesim.errors import DataError
 
 # contract.md, "Results store (fixed)": names and types, in this order.

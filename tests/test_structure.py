@@ -8,12 +8,13 @@ import inspect
 import numpy as np
 import pytest
 
-import scenesim.cache
 import scenesim.memo
-from benchmarks import evaluate, runner
+import scenesim.room.cache
 from benchmarks.excinfo import exc_text
+from benchmarks.metrics import evaluate
+from benchmarks.run import runner
 from enhancers.chain import hop_of
-from scenesim.mixing import noise_gain_for_snr, noise_gain_from_powers
+from scenesim.scene.mixing import noise_gain_for_snr, noise_gain_from_powers
 
 
 class _HopRaises:
@@ -59,9 +60,9 @@ def test_noise_gain_formula_is_written_once_and_correct(rng):
     g = noise_gain_for_snr(s, n, 5.0)
     assert 10 * np.log10(np.mean(s**2) / np.mean((g * n) ** 2)) == pytest.approx(5.0, abs=1e-9)
     # Scene.mix calls the same function instead of repeating the formula.
-    import scenesim.scene
+    import scenesim.scene.compose
 
-    assert "noise_gain_from_powers" in inspect.getsource(scenesim.scene.SceneImages.mix)
+    assert "noise_gain_from_powers" in inspect.getsource(scenesim.scene.compose.SceneImages.mix)
 
 
 def test_cache_is_split_into_a_generic_memoiser_and_the_ism_cache():
@@ -73,6 +74,6 @@ def test_cache_is_split_into_a_generic_memoiser_and_the_ism_cache():
             imported.update(a.name for a in node.names)
     assert not {m for m in imported if m and m.startswith("scenesim.") and m != "scenesim.errors"}
     assert not hasattr(scenesim.memo, "cached_rir") and not hasattr(scenesim.memo, "rir_key")
-    # The old public names still work through scenesim.cache.
-    assert scenesim.cache.cached_array is scenesim.memo.cached_array
-    assert scenesim.cache.stable_hash is scenesim.memo.stable_hash
+    # The old public names still work through scenesim.room.cache.
+    assert scenesim.room.cache.cached_array is scenesim.memo.cached_array
+    assert scenesim.room.cache.stable_hash is scenesim.memo.stable_hash

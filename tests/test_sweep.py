@@ -8,7 +8,7 @@ import textwrap
 
 import pytest
 
-from benchmarks.sweep import PRESETS, Condition, load_sweep, parse_sweep
+from benchmarks.run.sweep import PRESETS, Condition, load_sweep, parse_sweep
 from scenesim.errors import ConfigError, ParameterError
 
 MINIMAL = """\
@@ -59,7 +59,7 @@ def test_condition_json_round_trip():
 
 def test_condition_id_is_the_same_in_another_process():
     """The id is a hash of canonical JSON, not Python's salted hash(): check across processes."""
-    code = "from benchmarks.sweep import load_sweep; print(' '.join(c.id for c in load_sweep('thesis').conditions()))"
+    code = "from benchmarks.run.sweep import load_sweep; print(' '.join(c.id for c in load_sweep('thesis').conditions()))"
     runs = [
         subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env={"PYTHONHASHSEED": str(s), "PATH": ""}).stdout.split()
         for s in (1, 2)
@@ -233,7 +233,7 @@ def test_early_window_default_keeps_ids_and_other_values_change_them():
 
 
 def test_talker_range_outside_the_room_is_a_config_error():
-    from benchmarks.sweep import preset_text
+    from benchmarks.run.sweep import preset_text
 
     text = preset_text("reverb").replace("distance_range_m = [0.5, 1.2]", "distance_range_m = [0.5, 3.5]")
     with pytest.raises(ConfigError, match="distance_m.*outside room"):

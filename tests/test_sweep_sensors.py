@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.runner import build_scene, sensor_columns
-from benchmarks.sweep import load_sweep, parse_sweep
+from benchmarks.run.runner import build_scene, sensor_columns
+from benchmarks.run.sweep import load_sweep, parse_sweep
 from scenesim.errors import ConfigError
 
 BASE = """

@@ -14,13 +14,18 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.sweep import load_sweep, parse_sweep, preset_text
-from benchmarks.thesis_reference import ThesisRow
-from benchmarks.thesis_search import BEST, score_cells
+from benchmarks.run.sweep import load_sweep, parse_sweep, preset_text
+from benchmarks.thesis.reference import ThesisRow
+from benchmarks.thesis.search import BEST, score_cells
 from scenesim.errors import ParameterError
-from scenesim.geometry import MicPair
-from scenesim.scene import NoiseSource, Scene, SourcePlacement, render_images
-from scenesim.thesis_farfield import ThesisFarField, axis_azimuth, thesis_plane_wave, truncated_sinc
+from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.thesis_farfield import (
+    ThesisFarField,
+    axis_azimuth,
+    thesis_plane_wave,
+    truncated_sinc,
+)
 
 FS = 16000
 
@@ -128,7 +133,7 @@ def test_thesis_repro_preset_is_the_search_reading():
 
 def test_thesis_repro_runs_at_reduced_size(tmp_path):
     from benchmarks.cli.main import main
-    from benchmarks.store import ResultStore
+    from benchmarks.store.sqlite import ResultStore
 
     text = preset_text("thesis-repro").replace("duration_s = 8.0", "duration_s = 2.0")
     text = text.replace('noise = ["babble", "factory", "wind"]', 'noise = ["wind"]').replace(
@@ -152,7 +157,7 @@ def _row(enhancer, snr_in, snr_i, pesq, method="thesis"):
 
 
 def test_repro_report_section_compares_cell_by_cell():
-    from benchmarks.report_thesis_repro import is_repro_row, repro_section
+    from benchmarks.report.thesis_repro import is_repro_row, repro_section
 
     rows = [_row("eb", 0.0, 12.8492, 2.149), _row("eb", 0.0, 11.8492, 2.249), _row("eb", 25.0, 12.6527, 3.662)]
     text = "\n".join(repro_section(rows))
@@ -167,7 +172,7 @@ def test_repro_report_section_compares_cell_by_cell():
 def test_search_shortcut_equals_running_the_eb_with_its_output_filter():
     """eb_snr_i runs the EB once without its low-pass and filters the replays per corner; that must
     equal full_cells' EB run with the low-pass inside (same beta sequence: the filter is after y)."""
-    from benchmarks.thesis_search import Cells, Reading, eb_snr_i, full_cells
+    from benchmarks.thesis.search import Cells, Reading, eb_snr_i, full_cells
 
     cells = Cells(duration_s=2.0, noises=("wind",), snrs=(5.0,))
     readings = [Reading(fd_taps=9, eq_fc_hz=fc, adapt="free", beta_max=0.5) for fc in (60.0, 300.0)]

@@ -10,10 +10,15 @@ import sqlite3
 import pytest
 
 from benchmarks.cli.main import main
-from benchmarks.runner import run_sweep
-from benchmarks.store_report import write_store_report
-from benchmarks.sweep import parse_sweep
-from benchmarks.versioning import SweepVersionError, config_version, describe_changes, sweep_config
+from benchmarks.report.from_store import write_store_report
+from benchmarks.run.runner import run_sweep
+from benchmarks.run.sweep import parse_sweep
+from benchmarks.run.versioning import (
+    SweepVersionError,
+    config_version,
+    describe_changes,
+    sweep_config,
+)
 
 TOML = """
 [sweep]

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy import signal as sps
 
-from scenesim.geometry import MicPair
-from scenesim.mixing import bandlimit
-from scenesim.noise_fields import corcos_coherence, wind_noise
-from scenesim.room import ShoeBox
-from scenesim.scene import NoiseSource, Scene, render_scene, spread_positions
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import NoiseSource, Scene, render_scene, spread_positions
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.mixing import bandlimit
+from scenesim.scene.noise_fields import corcos_coherence, wind_noise
 
 FS = 16000
 D = 0.0214

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.signal import fftconvolve
 
-from benchmarks import metrics as M
-from benchmarks.srmr import srmr
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.srmr import srmr
 from scenesim.errors import ParameterError
 
 pytest.importorskip("nara_wpe", reason="optional extra not installed: pip install -e '.[wpe]'")

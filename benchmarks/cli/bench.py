@@ -14,9 +14,9 @@ from benchmarks.cli.checks import (
     options_named,
     prepare_out_dir,
 )
-from benchmarks.lock import run_lock
-from benchmarks.progress import slow_rir_warning
-from benchmarks.signals import sigterm_as_interrupt
+from benchmarks.run.lock import run_lock
+from benchmarks.run.progress import slow_rir_warning
+from benchmarks.run.signals import sigterm_as_interrupt
 from scenesim.errors import ParameterError
 
 #: Shown where PESQ appears (bench list, README install section): licence and install needs.
@@ -101,8 +101,8 @@ def _nonneg_int(text: str) -> int:
 
 
 def _run(args) -> int:
-    from benchmarks.runner import _select_conditions, run_sweep
-    from benchmarks.store_report import write_store_report
+    from benchmarks.report.from_store import write_store_report
+    from benchmarks.run.runner import _select_conditions, run_sweep
 
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
@@ -161,7 +161,7 @@ def _run(args) -> int:
 
 def _mark_killed_runs(out: Path) -> None:
     """With the lock held, a ``runs`` row still 'running' belongs to a run that was killed."""
-    from benchmarks.store import STORE_NAME, ResultStore
+    from benchmarks.store.sqlite import STORE_NAME, ResultStore
 
     if (out / STORE_NAME).is_file():
         with ResultStore.open(out) as store:
@@ -175,7 +175,7 @@ def _failed_rows_line(summary) -> str | None:
     """One line when rows of this run failed: all (an error; the caller exits 1) or some (a warning)."""
     if not summary.n_errors:
         return None
-    from benchmarks.store import ResultStore
+    from benchmarks.store.sqlite import ResultStore
 
     with ResultStore.open(summary.out_dir, readonly=True) as store:
         rows = store.rows("status = 'error' AND run_id = ?", (summary.run_id,))
@@ -189,7 +189,7 @@ def _failed_rows_line(summary) -> str | None:
 @contextlib.contextmanager
 def _store_errors(out_dir):
     """sqlite's errors on a damaged ``results.sqlite`` as one line saying how to move it aside."""
-    from benchmarks.store import STORE_NAME
+    from benchmarks.store.sqlite import STORE_NAME
 
     try:
         yield
@@ -198,8 +198,8 @@ def _store_errors(out_dir):
 
 
 def _report(args) -> int:
-    from benchmarks.listening import DEFAULT_LISTEN_COUNT, ListenOptions
-    from benchmarks.store_report import write_store_report
+    from benchmarks.report.from_store import write_store_report
+    from benchmarks.report.listening import DEFAULT_LISTEN_COUNT, ListenOptions
 
     count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
     with _store_errors(args.dir):
@@ -210,7 +210,7 @@ def _report(args) -> int:
 
 
 def _compare(args) -> int:
-    from benchmarks.compare import DEFAULT_METRICS, compare_stores
+    from benchmarks.report.compare import DEFAULT_METRICS, compare_stores
 
     text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS), show_all=args.show_all)
     print(text)
@@ -222,7 +222,7 @@ def _compare(args) -> int:
 def _list(args) -> int:
     import os
 
-    from benchmarks.sweep import PRESETS, load_sweep
+    from benchmarks.run.sweep import PRESETS, load_sweep
     from enhancers.registry import describe
 
     print("Presets (scenesim bench run NAME):")

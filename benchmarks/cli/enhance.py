@@ -23,7 +23,7 @@ from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file
 from enhancers.registry import get, make, with_geometry
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
-from scenesim.geometry import SPEED_OF_SOUND_MPS
+from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_physical
 
 

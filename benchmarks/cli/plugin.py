@@ -1,4 +1,4 @@
-"""``scenesim plugin new NAME --dest DIR``: start an enhancer plugin package (benchmarks.plugin_scaffold)."""
+"""``scenesim plugin new NAME --dest DIR``: start an enhancer plugin package (benchmarks.cli.plugin_scaffold)."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ def add_parser(subparsers) -> None:
 
 
 def _new(args) -> int:
-    from benchmarks.plugin_scaffold import module_name, new_plugin
+    from benchmarks.cli.plugin_scaffold import module_name, new_plugin
 
     files = new_plugin(args.name, args.dest)
     for f in files:

@@ -52,7 +52,7 @@ def add_parser(subparsers):
     p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="sabine",
                    help="how --rt60 becomes an absorption (default sabine)")
     p.add_argument("--scattering", type=float, default=None, metavar="S",
-                   help="wall scattering coefficient in [0, 1) (diffuse reflections, scenesim.scattering); "
+                   help="wall scattering coefficient in [0, 1) (diffuse reflections, scenesim.room.scattering); "
                         "default 0.5 with --rt60-method calibrated / --band-rt60, else 0 (specular)")
     p.add_argument("--air", action="store_true",
                    help="add ISO 9613-1 air absorption (see --temperature, --humidity)")
@@ -111,7 +111,7 @@ def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
 
 def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
     """Warn when the measured T30 misses --rt60 by more than 10 % (uncalibrated methods only)."""
-    from scenesim.rt60 import measure_rt60
+    from scenesim.room.rt60 import measure_rt60
 
     if args.rt60 is None or args.rt60_method == "calibrated":
         return
@@ -132,7 +132,7 @@ def _warn_rt60_miss(h: np.ndarray, fs: int, args) -> None:
 def _check_physical_room(args) -> None:
     """--rt60 and --dims within the shared physical ranges; a slow render is announced (as
     ``bench run`` does) unless the hybrid tail or an explicit --length/--max-order bounds it."""
-    from benchmarks.progress import SLOW_RIR_WARN_S, estimated_rir_seconds
+    from benchmarks.run.progress import SLOW_RIR_WARN_S, estimated_rir_seconds
 
     for value in args.dims:
         check_physical("--dims", value, "room_dim_m")
@@ -149,8 +149,8 @@ def _check_physical_room(args) -> None:
 
 
 def run(args) -> int:
-    from scenesim.geometry import DEFAULT_SPACING_M, MicPair
-    from scenesim.render import room_rir
+    from scenesim.room.render import room_rir
+    from scenesim.scene.geometry import DEFAULT_SPACING_M, MicPair
 
     check_cli_fs("--fs", args.fs)
     _check_physical_room(args)
@@ -231,7 +231,7 @@ def run(args) -> int:
     if args.compare and not room.is_flat:
         written += _compare_bands(room, args, mics, compare_order, out)
     elif args.compare:
-        from scenesim.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
+        from scenesim.room.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
 
         # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
         method = "auto" if args.method == "hybrid" else args.method
@@ -269,11 +269,11 @@ def run(args) -> int:
 
 
 def _build_room(args, absorption):
-    """The room the flags describe (calibrated rooms through scenesim.calibration.calibrate_room)."""
-    from scenesim.air import AirAbsorption
-    from scenesim.bands import OCTAVE_CENTERS_HZ
-    from scenesim.calibration import calibrate_room
-    from scenesim.room import ShoeBox
+    """The room the flags describe (calibrated rooms through scenesim.room.calibration.calibrate_room)."""
+    from scenesim.room.air import AirAbsorption
+    from scenesim.room.bands import OCTAVE_CENTERS_HZ
+    from scenesim.room.calibration import calibrate_room
+    from scenesim.room.shoebox import ShoeBox
 
     air = AirAbsorption(temperature_c=args.temperature, humidity_pct=args.humidity) if args.air else None
     dims = tuple(args.dims)
@@ -295,7 +295,7 @@ def _build_room(args, absorption):
 def _iso3382(room, args, mics, h, directivity) -> dict:
     """ISO 3382-1 parameters of every mic's RIR beside the target's (printed; saved in rir.json)."""
     from benchmarks.cli.rir_iso import iso3382_table
-    from scenesim.render import room_rir
+    from scenesim.room.render import room_rir
 
     # The exact direct path, rendered as h was (same high-pass and directivity), for the exact DRR.
     hd = room_rir(room, args.source, mics, fs=args.fs, max_order=0, length_s=h.shape[1] / args.fs,
@@ -315,8 +315,8 @@ def _band_meta(room) -> dict:
 
 def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
     """Octave-band materials / air absorption against pyroomacoustics: print and save the figures."""
-    from scenesim.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
-    from scenesim.crosscheck_bands import (
+    from scenesim.room.bands import OCTAVE_CENTERS_HZ, exact_midband_hz
+    from scenesim.room.crosscheck_bands import (
         compare_bands_with_pyroomacoustics,
         pyroomacoustics_air_table,
     )
@@ -349,7 +349,7 @@ def _compare_bands(room, args, mics, max_order, out: Path) -> list[Path]:
 
 def _compare_scattering(room, args, mics) -> dict:
     """Per-octave T30, EDT, C50 of mic 0 against pyroomacoustics' ray tracing (same absorption, scattering)."""
-    from scenesim.crosscheck_scattering import compare_scattering_with_pyroomacoustics
+    from scenesim.room.crosscheck_scattering import compare_scattering_with_pyroomacoustics
 
     chk = compare_scattering_with_pyroomacoustics(room, args.source, mics, fs=args.fs)
     print("  scattering vs pyroomacoustics ray tracing (hybrid ISM order 3 + 20000 rays; its scattered "
@@ -363,7 +363,7 @@ def _compare_scattering(room, args, mics) -> dict:
 
 
 def _directivity(args):
-    from scenesim.directivity import Directivity
+    from scenesim.room.directivity import Directivity
 
     kw = {"azimuth_deg": args.source_azimuth, "elevation_deg": args.source_elevation}
     if args.directivity == "cardioid-family":
@@ -376,7 +376,7 @@ def _directivity(args):
 def _compare_directivity(args, room, mics, max_order, directivity) -> list:
     """pyroomacoustics shares the frequency-independent first-order cardioid family: compare
     each distinct band's p (talker: one run per octave) at the same orientation."""
-    from scenesim.crosscheck_directivity import compare_directivity_with_pyroomacoustics
+    from scenesim.room.crosscheck_directivity import compare_directivity_with_pyroomacoustics
 
     coef = directivity.coefficient_array
     rows = []
@@ -398,12 +398,12 @@ def _compare_hybrid(args, room, mics, max_order, directivity, h) -> dict:
     """Hybrid vs the full ISM: early taps, T30 and EDT (20 Hz high-passed) of mic 0."""
     from scipy import signal
 
-    from scenesim.ism import DEFAULT_MIXING_TIME_S
-    from scenesim.render import room_rir
-    from scenesim.rt60 import measure_rt60
+    from scenesim.room.ism import DEFAULT_MIXING_TIME_S
+    from scenesim.room.render import room_rir
+    from scenesim.room.rt60 import measure_rt60
 
     # The same renderer and high-pass as the hybrid RIR, so only the tail differs.
-    # Same length as h: the scattered tail's noise (scenesim.scattering) depends on the length.
+    # Same length as h: the scattered tail's noise (scenesim.room.scattering) depends on the length.
     full = room_rir(
         room, args.source, mics, fs=args.fs, max_order=max_order, length_s=h.shape[1] / args.fs,
         method="fast", directivity=directivity, highpass_hz=args.highpass if args.highpass else None,

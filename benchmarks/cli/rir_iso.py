@@ -1,5 +1,5 @@
 """``scenesim rir``'s ISO 3382-1 table: every parameter of each mic's RIR beside the same quantity of
-the target (:mod:`scenesim.iso3382`).
+the target (:mod:`scenesim.room.iso3382`).
 
 The target reverberation time is the one the user asked for (``--rt60`` for every octave,
 ``--band-rt60`` per octave), else the room's Sabine value, labelled as such; C50, D50 and the
@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from scenesim.bands import OCTAVE_CENTERS_HZ
-from scenesim.iso3382 import TMID_BANDS_HZ, diffuse_field_parameters, room_parameters
+from scenesim.room.bands import OCTAVE_CENTERS_HZ
+from scenesim.room.iso3382 import TMID_BANDS_HZ, diffuse_field_parameters, room_parameters
 
 
 def _target_per_octave(room, rt60_arg) -> tuple[np.ndarray, str]:

@@ -2,7 +2,7 @@
 
 DEG and REF are files or folders (a folder's ``.wav``/``.flac`` files, paired with the
 reference folder by file name).  Every metric that applies is computed
-(:mod:`benchmarks.scoring`): with a reference PESQ (narrow-band and wide-band, MOS-LQO and
+(:mod:`benchmarks.metrics.scoring`): with a reference PESQ (narrow-band and wide-band, MOS-LQO and
 raw), STOI, ESTOI, SI-SDR and segmental SNR; always SRMR and DNSMOS P.835 (when the
 ``[dnsmos]`` extra is installed).  The CSV goes to ``--out`` or to standard output.
 """
@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from benchmarks.cli.checks import check_out_file
-from benchmarks.scoring import INTRUSIVE, NON_INTRUSIVE, score_files
+from benchmarks.metrics.scoring import INTRUSIVE, NON_INTRUSIVE, score_files
 
 _FIRST = ("file", "reference", "fs", "duration_s")
 

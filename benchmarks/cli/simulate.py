@@ -25,9 +25,8 @@ from benchmarks.cli.checks import (
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import ParameterError
 from scenesim.files import write_json_atomic
-from scenesim.geometry import MicPair
-from scenesim.room import ShoeBox
-from scenesim.scene import (
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import (
     NOISE_FIELDS,
     REFERENCES,
     SNR_MODES,
@@ -36,7 +35,8 @@ from scenesim.scene import (
     SourcePlacement,
     render_images,
 )
-from scenesim.sensors import SensorModel
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.sensors import SensorModel
 from scenesim.validate import check_outside_pair, check_physical, check_seed, check_snr_band
 
 DEFAULT_DURATION_S = 3.0
@@ -138,7 +138,7 @@ def add_parser(subparsers):
     p.add_argument(
         "--spacing-m", type=float, default=0.0214, help="mic spacing in metres (default 0.0214)"
     )
-    sensors = p.add_argument_group("sensors (scenesim.sensors; default: ideal identical noiseless mics)")
+    sensors = p.add_argument_group("sensors (scenesim.scene.sensors; default: ideal identical noiseless mics)")
     sensors.add_argument("--mic-gain-db", type=float, default=0.0, metavar="DB", help="rear mic sensitivity re front")
     sensors.add_argument("--mic-phase-deg", type=float, default=0.0, metavar="DEG", help="rear mic phase re front")
     sensors.add_argument(

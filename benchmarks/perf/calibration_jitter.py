@@ -11,12 +11,12 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
 (operation ``W1``) and on ``s - n`` (``W2``), Hagerman & Olofsson's pair -- it prints:
 
-1. ``speech_jitter_db`` (:func:`benchmarks.distortion.speech_jitter_db` of ``W1 s`` and ``W2 s``,
+1. ``speech_jitter_db`` (:func:`benchmarks.metrics.distortion.speech_jitter_db` of ``W1 s`` and ``W2 s``,
    latency-aligned) per noise and input SNR: max over seeds (target <= -30 dB for
    ``eb-robust-ss`` where the input SNR is >= 15 dB) and mean;
 2. the fraction of rows whose replay SNR-I (``W1 s`` over ``W1 n``) and Hagerman SNR-I
    (``(y1 + y2) / 2`` over ``(y1 - y2) / 2``) are within 3 dB (target >= 95 %), measured as
-   :func:`benchmarks.evaluate.evaluate_enhancer` measures them (same alignment, same input SNR);
+   :func:`benchmarks.metrics.evaluate.evaluate_enhancer` measures them (same alignment, same input SNR);
 3. mean replay SNR-I per noise, and with ``--baseline FILE`` (written by ``--save-baseline`` on
    another version of the code) the change (target: no more than 1 dB below);
 4. issue 12's mismatch loss (:func:`benchmarks.perf.robust_eb.snr_improvements`: 20 s, scored
@@ -35,13 +35,13 @@ from collections import defaultdict
 
 import numpy as np
 
-from benchmarks import metrics as M
-from benchmarks.distortion import speech_jitter_db
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.distortion import speech_jitter_db
 from benchmarks.perf.robust_eb import snr_improvements
-from benchmarks.sweep import load_sweep
-from benchmarks.worker import render_group
+from benchmarks.run.sweep import load_sweep
+from benchmarks.run.worker import render_group
 from enhancers.registry import make, with_geometry
-from scenesim.geometry import SPEED_OF_SOUND_MPS
+from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0

@@ -6,9 +6,9 @@ The learned suppressor must be measured on real speech: the built-in artificial 
 misleads it (as it misleads RNNoise).  Each CMU ARCTIC utterance in ``DATA/speech`` (at
 -26 dBFS) gets a different excerpt of the noise recording ``DATA/noise/<noise>_*.wav``
 (``cafe``: a restaurant with many talkers, the real babble) at ``--snr`` dB (active speech
-level, :func:`scenesim.mixing.mix_at_snr`), single channel; ``dfn3`` (default parameters)
+level, :func:`scenesim.scene.mixing.mix_at_snr`), single channel; ``dfn3`` (default parameters)
 processes it, the output is aligned by its declared latency and scored against the clean
-utterance by :func:`benchmarks.scoring.score`.  Targets (issue 19): DNSMOS BAK up by >= 0.5,
+utterance by :func:`benchmarks.metrics.scoring.score`.  Targets (issue 19): DNSMOS BAK up by >= 0.5,
 wide-band PESQ up, DNSMOS OVRL of the clean speech above the noisy.
 """
 
@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmarks.metrics import align
-from benchmarks.scoring import score
+from benchmarks.metrics.scoring import score
+from benchmarks.metrics.speech import align
 from scenesim.audio import read_audio
-from scenesim.mixing import mix_at_snr
+from scenesim.scene.mixing import mix_at_snr
 
 FS = 16000
 KEYS = ("dnsmos_sig", "dnsmos_bak", "dnsmos_ovrl", "pesq_wb_mos_lqo", "pesq_nb_mos_lqo", "stoi", "si_sdr_db")

@@ -2,10 +2,10 @@
 
     python -m benchmarks.perf.dnsmos_cost [--seconds 2 6 10] [--runs 3]
 
-DNSMOS (:mod:`benchmarks.dnsmos`, one ONNX session per process with one intra-op thread)
+DNSMOS (:mod:`benchmarks.metrics.dnsmos`, one ONNX session per process with one intra-op thread)
 repeats a clip shorter than 9.01 s until it is not and scores 9.01 s windows 1 s apart, so
 its cost depends on the length: 2 s -> 16 s -> 7 windows, 6 s -> 12 s -> 3, 10 s -> 1.
-PESQ is ``benchmarks.metrics.pesq_scores`` (both modes).  Median CPU time of ``--runs``
+PESQ is ``benchmarks.metrics.speech.pesq_scores`` (both modes).  Median CPU time of ``--runs``
 runs after a warm-up (which opens the ONNX session).  The verdict: DNSMOS is opt-in per
 sweep (``metrics = ["dnsmos"]``) when it costs more than PESQ.
 """
@@ -16,8 +16,8 @@ import argparse
 
 import numpy as np
 
-from benchmarks.dnsmos import dnsmos_p835
-from benchmarks.metrics import pesq_scores
+from benchmarks.metrics.dnsmos import dnsmos_p835
+from benchmarks.metrics.speech import pesq_scores
 from benchmarks.perf.timing import median_time
 
 FS = 16000

@@ -14,7 +14,7 @@ Also printed: the ratio of process CPU times (pyroomacoustics runs ``num_threads
 
 Hybrid rows: ``method="hybrid"`` (default mixing time) against the full ISM (``"fast"``), both
 with the default length (1.2 RT60 + direct path) and every image within it, rooms with
-``ShoeBox(rt60_s=...)`` (Sabine absorption); T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.rt60``) as the
+``ShoeBox(rt60_s=...)`` (Sabine absorption); T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.room.rt60``) as the
 ratio hybrid / full, and the early taps' max difference relative to the peak.
 
 Memory: peak traced memory (``tracemalloc``; numpy reports its buffers to it) of one RIR at
@@ -55,10 +55,10 @@ def _pra_room(pra, dims, e_abs, max_order, src, mics, fs):
 def main(argv=None) -> int:
     import pyroomacoustics as pra
 
-    from scenesim.crosscheck import PRA_GLOBAL_DELAY
-    from scenesim.geometry import MicPair
-    from scenesim.ism import image_source_rir
-    from scenesim.room import ShoeBox
+    from scenesim.room.crosscheck import PRA_GLOBAL_DELAY
+    from scenesim.room.ism import image_source_rir
+    from scenesim.room.shoebox import ShoeBox
+    from scenesim.scene.geometry import MicPair
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=int, default=5)
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
 
 
 def _scene(dims):
-    from scenesim.geometry import MicPair
+    from scenesim.scene.geometry import MicPair
 
     d = np.asarray(dims)
     mics = MicPair(tuple(d * [0.62, 0.55, 0.0] + [0, 0, 1.2])).positions_m
@@ -135,9 +135,9 @@ def _scene(dims):
 def _hybrid_rows(args, fs):
     from scipy import signal
 
-    from scenesim.ism import DEFAULT_MIXING_TIME_S, image_source_rir
-    from scenesim.room import ShoeBox
-    from scenesim.rt60 import measure_rt60
+    from scenesim.room.ism import DEFAULT_MIXING_TIME_S, image_source_rir
+    from scenesim.room.rt60 import measure_rt60
+    from scenesim.room.shoebox import ShoeBox
 
     sos = signal.butter(2, 20.0, btype="highpass", fs=fs, output="sos")
     print(f"\nhybrid (mixing time {DEFAULT_MIXING_TIME_S:g} s) vs full ISM, default length, "
@@ -170,8 +170,8 @@ def _hybrid_rows(args, fs):
 def _memory_rows(args, fs):
     import pyroomacoustics as pra
 
-    from scenesim.ism import image_source_rir
-    from scenesim.room import ShoeBox
+    from scenesim.room.ism import image_source_rir
+    from scenesim.room.shoebox import ShoeBox
 
     methods = ["fast", "hybrid"] + (["exact"] if args.exact_memory else [])
     print(f"\npeak traced memory of one RIR pair at RT60 {args.memory_rt60:g} s "
@@ -195,7 +195,7 @@ def _memory_rows(args, fs):
 
 def _jit_cost():
     """Seconds of the first kernel call in a fresh process: (empty cache, warm cache)."""
-    code = ("import time; t = time.perf_counter(); from scenesim.ism_kernels import warm_up; "
+    code = ("import time; t = time.perf_counter(); from scenesim.room.ism_kernels import warm_up; "
             "warm_up(); print(time.perf_counter() - t)")
     out = []
     with tempfile.TemporaryDirectory() as cache:

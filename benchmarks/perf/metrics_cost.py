@@ -18,10 +18,10 @@ import argparse
 import numpy as np
 
 import enhancers
-from benchmarks import metrics as M
-from benchmarks.evaluate import evaluate_enhancer, input_metrics
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.evaluate import evaluate_enhancer, input_metrics
 from benchmarks.perf.timing import median_time
-from scenesim.scene import Scene, render_scene
+from scenesim.scene.compose import Scene, render_scene
 
 FS = 16000
 

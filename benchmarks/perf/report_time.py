@@ -19,9 +19,9 @@ from pathlib import Path
 
 def time_report(store_dir: Path, count: int) -> tuple[int, float, float]:
     """``(rows, CPU s, wall s)`` of one report of ``store_dir`` with ``count`` listening conditions."""
-    from benchmarks.listening import ListenOptions
-    from benchmarks.store import ResultStore
-    from benchmarks.store_report import write_store_report
+    from benchmarks.report.from_store import write_store_report
+    from benchmarks.report.listening import ListenOptions
+    from benchmarks.store.sqlite import ResultStore
 
     with ResultStore.open(store_dir, readonly=True) as store:
         n = store.count()

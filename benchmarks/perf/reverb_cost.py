@@ -18,14 +18,14 @@ import argparse
 import numpy as np
 
 import enhancers
-from benchmarks import metrics as M
-from benchmarks.evaluate import evaluate_enhancer, input_metrics
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.evaluate import evaluate_enhancer, input_metrics
+from benchmarks.metrics.srmr import srmr
 from benchmarks.perf.timing import median_time
-from benchmarks.srmr import srmr
-from scenesim.geometry import MicPair
-from scenesim.reverb_parts import speech_parts
-from scenesim.room import ShoeBox
-from scenesim.scene import NoiseSource, Scene, SourcePlacement, render_images
+from scenesim.room.reverb_parts import speech_parts
+from scenesim.room.shoebox import ShoeBox
+from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images
+from scenesim.scene.geometry import MicPair
 
 FS = 16000
 

@@ -37,9 +37,9 @@ import enhancers
 from benchmarks.perf.enhancer_rtf import measure
 from data_recipes.artificial_voice import artificial_voice
 from data_recipes.noise_synthesis import synthesize_noise
-from scenesim.freefield import plane_wave
-from scenesim.geometry import MicPair
-from scenesim.noise_fields import diffuse_noise, wind_noise
+from scenesim.scene.freefield import plane_wave
+from scenesim.scene.geometry import MicPair
+from scenesim.scene.noise_fields import diffuse_noise, wind_noise
 
 FS = 16000
 PAIR = MicPair()

@@ -35,7 +35,7 @@ def independent_errors(room, t, *, n_placements=4, seed=7):
     """(octave 500/1k/2k errors, speech-mean error, 20 Hz high-passed broadband error), relative."""
     import pyroomacoustics.experimental as pe
 
-    from scenesim.ism import image_source_rir
+    from scenesim.room.ism import image_source_rir
 
     rng = np.random.default_rng(seed)
     d = np.asarray(room.dims_m, dtype=float)
@@ -55,13 +55,13 @@ def independent_errors(room, t, *, n_placements=4, seed=7):
 
 
 def main() -> None:
-    from scenesim.bands import OCTAVE_CENTERS_HZ, octave_rt60
-    from scenesim.calibration import (
+    from scenesim.room.bands import OCTAVE_CENTERS_HZ, octave_rt60
+    from scenesim.room.calibration import (
         CALIBRATION_PLACEMENTS,
         calibrate_room,
         default_calibration_positions,
     )
-    from scenesim.render import room_rir
+    from scenesim.room.render import room_rir
 
     print("1. flat calibration, independent check (pyroomacoustics measure_rt60, 4 other placements)")
     print("room            RT60  | 500 Hz  1 kHz  2 kHz | speech mean | HP20 broadband | calibration s")

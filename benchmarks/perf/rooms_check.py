@@ -4,7 +4,7 @@ Sections (``--only`` picks some; each prints a table):
 
 * ``targets``: rooms the calibration never saw (a corridor, one highly absorptive wall, an
   open office), calibrated with and without diffuse scattering, measured at placements drawn
-  independently (seeded) by the ISO 3382 chain of :mod:`scenesim.iso3382`: speech-octave T30
+  independently (seeded) by the ISO 3382 chain of :mod:`scenesim.room.iso3382`: speech-octave T30
   and EDT against the target, C50 against its diffuse-field value.
 * ``pra``: the same rooms against pyroomacoustics' ray tracing (same absorption and
   scattering; T30/EDT per octave, speech-octave mean).
@@ -45,9 +45,9 @@ def _placements(dims, n, seed=5):
 
 
 def targets(n_placements: int = 3) -> None:
-    from scenesim.calibration import calibrate_room
-    from scenesim.iso3382 import diffuse_field_parameters, room_parameters
-    from scenesim.render import room_rir
+    from scenesim.room.calibration import calibrate_room
+    from scenesim.room.iso3382 import diffuse_field_parameters, room_parameters
+    from scenesim.room.render import room_rir
 
     print("## Unseen rooms: speech-octave T30 / EDT vs target (%), C50 - diffuse-field C50 (dB)")
     print(f"{'room':24s} {'scattering':>10s} {'T30 %':>16s} {'EDT %':>16s} {'C50 dB':>16s}")
@@ -68,8 +68,8 @@ def targets(n_placements: int = 3) -> None:
 
 
 def pra(n_placements: int = 1) -> None:
-    from scenesim.calibration import calibrate_room
-    from scenesim.crosscheck_scattering import compare_scattering_with_pyroomacoustics
+    from scenesim.room.calibration import calibrate_room
+    from scenesim.room.crosscheck_scattering import compare_scattering_with_pyroomacoustics
 
     print("## Scattering 0.5 vs pyroomacoustics ray tracing (same absorption and scattering), mic 0")
     for name, (dims, target, profile) in ROOMS.items():
@@ -85,8 +85,8 @@ def pra(n_placements: int = 1) -> None:
 def moving() -> None:
     from scipy import signal as ss
 
-    from scenesim.moving import render_moving_source
-    from scenesim.room import ShoeBox
+    from scenesim.room.moving import render_moving_source
+    from scenesim.room.shoebox import ShoeBox
 
     print("## Moving tone (1 m/s, RT60 ~0.3 s): largest line outside f0 (1 +- v/c) +- 6 Hz, dB re tone")
     room = ShoeBox((6.0, 5.0, 3.0), 0.3)
@@ -107,12 +107,12 @@ def moving() -> None:
 
 
 def hybrid() -> None:
-    from scenesim.air import AirAbsorption
-    from scenesim.bands import OCTAVE_CENTERS_HZ, octave_rt60
-    from scenesim.calibration import calibrate_room
-    from scenesim.geometry import MicPair
-    from scenesim.render import room_rir
-    from scenesim.room import ShoeBox
+    from scenesim.room.air import AirAbsorption
+    from scenesim.room.bands import OCTAVE_CENTERS_HZ, octave_rt60
+    from scenesim.room.calibration import calibrate_room
+    from scenesim.room.render import room_rir
+    from scenesim.room.shoebox import ShoeBox
+    from scenesim.scene.geometry import MicPair
 
     centers = OCTAVE_CENTERS_HZ[:6]
     banded = ShoeBox((7.0, 6.0, 3.0), np.array([[0.08, 0.1, 0.15, 0.2, 0.25, 0.3]] * 6), bands_hz=centers,

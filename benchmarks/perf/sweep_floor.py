@@ -7,8 +7,8 @@ For each preset this runs ``bench run PRESET --workers 1 --no-report`` in this p
 serial executor: every unit of work is timed here; CPU time of this process plus its
 children) into a fresh store, after an untimed one-condition warm-up run that fills a fresh
 disk cache (the per-machine warm-up arrays and rooms, as on a user's machine), and records every signal pair the
-sweep hands to a metric (``benchmarks.metrics.pesq_scores``, ``stoi_scores``, and
-``benchmarks.srmr.srmr`` as the reverberation columns call it) to a temporary directory.
+sweep hands to a metric (``benchmarks.metrics.speech.pesq_scores``, ``stoi_scores``, and
+``benchmarks.metrics.srmr.srmr`` as the reverberation columns call it) to a temporary directory.
 The recording's own CPU time is measured and subtracted.
 
 The **metric floor** is then the CPU time of the libraries alone on exactly those signals:
@@ -16,7 +16,7 @@ The **metric floor** is then the CPU time of the libraries alone on exactly thos
 * PESQ: the ``pesq`` package's C library (``cypesq``), narrow band and (at 16 kHz) wide band,
   on the arrays the package would pass it (normalised float32, prepared outside the timing);
 * STOI: ``pystoi.stoi`` twice, ``extended=False`` and ``extended=True`` (pystoi as shipped);
-* SRMR: :func:`benchmarks.srmr.srmr` after one warm-up call (its filter design is not floor).
+* SRMR: :func:`benchmarks.metrics.srmr.srmr` after one warm-up call (its filter design is not floor).
 
 It prints the sweep CPU, the floor and their ratio (target <= 1.3 for ``phone`` and
 ``thesis``), the median over ``--runs`` sweeps (the floor is measured once per recording).
@@ -77,7 +77,8 @@ class Recorder:
         self._undo.append((module, name, original))
 
     def __enter__(self):
-        from benchmarks import metrics, reverb_metrics
+        from benchmarks.metrics import reverb as reverb_metrics
+        from benchmarks.metrics import speech as metrics
 
         def pair(reference, degraded, *, fs):
             return {"ref": np.asarray(reference), "deg": np.asarray(degraded), "fs": np.asarray(fs)}
@@ -130,7 +131,7 @@ def _stoi_floor(data) -> float:
 
 
 def _srmr_floor(data) -> float:
-    from benchmarks.srmr import srmr
+    from benchmarks.metrics.srmr import srmr
 
     c0 = time.process_time()
     srmr(np.asarray(data["x"], dtype=np.float64), int(data["fs"]))
@@ -156,7 +157,7 @@ def _sweep(preset: str, args, seeds):
     """The sweep as run: the preset with ``--seeds``/``--duration`` applied."""
     import dataclasses
 
-    from benchmarks.sweep import load_sweep
+    from benchmarks.run.sweep import load_sweep
 
     sweep = load_sweep(preset)
     axes = dict(sweep.axes)
@@ -169,7 +170,7 @@ def _sweep(preset: str, args, seeds):
 
 def sweep_cpu(preset: str, args, tmp: Path, run: int, record: bool) -> tuple[float, Path | None]:
     """CPU seconds of one serial sweep without its report (recording subtracted)."""
-    from benchmarks.runner import run_sweep
+    from benchmarks.run.runner import run_sweep
     from scenesim.memo import clear_memory_cache
 
     out = tmp / f"{preset}-{run}"
@@ -196,7 +197,7 @@ def measure(preset: str, args) -> dict:
         cpus, rec_dir = [], None
         os.environ["SCENESIM_CACHE"] = str(tmp / "cache")
         # Untimed warm-up (imports, the per-machine disk cache of warm-up arrays and rooms).
-        from benchmarks.runner import run_sweep
+        from benchmarks.run.runner import run_sweep
 
         run_sweep(_sweep(preset, args, args.seeds), tmp / "warm-up", workers=1, data_dir=args.data_dir, limit=1,
                   report=False, progress=False)  # fmt: skip

@@ -41,9 +41,9 @@ import numpy as np
 
 def _signal_pairs(preset: str, data_dir: str | None) -> list[tuple[np.ndarray, np.ndarray, int]]:
     """``(reference, estimate, fs)`` for every metric call of the sweep (inputs and outputs)."""
-    from benchmarks.runner import plan_conditions
-    from benchmarks.sweep import load_sweep
-    from benchmarks.worker import ConditionTask, build_enhancer, render_group
+    from benchmarks.run.runner import plan_conditions
+    from benchmarks.run.sweep import load_sweep
+    from benchmarks.run.worker import ConditionTask, build_enhancer, render_group
 
     sweep = load_sweep(preset)
     pairs = []
@@ -101,7 +101,7 @@ def metric_floor(pairs, workers: int, *, with_estoi: bool = False) -> float:
     """
     import multiprocessing
 
-    from benchmarks.executors import SINGLE_THREAD_ENV, _environ
+    from benchmarks.run.executors import SINGLE_THREAD_ENV, _environ
 
     fn = _metrics_with_estoi if with_estoi else _metric_calls
     ctx = multiprocessing.get_context("forkserver")
@@ -172,7 +172,7 @@ def main(argv=None) -> int:
           f"overhead at 2 workers vs all its metric calls (PESQ nb+wb, STOI, ESTOI): "
           f"{100 * (w2 / floors[(2, 'estoi')] - 1):.0f} % (target <= 25 %)")  # fmt: skip
     if keep is not None:
-        from benchmarks.store_report import write_store_report
+        from benchmarks.report.from_store import write_store_report
 
         files = write_store_report(keep)
         print(f"store and report of the 2-worker run: {keep} ({len(files)} report files)")

@@ -1,0 +1,77 @@
+"""The distortion, G.160 and attribution columns of a results row (issue 16), from signals evaluate has.
+
+Three groups, each computed by one function so a failure in one leaves the others:
+
+* :func:`distortion_columns` -- ``speech_jitter_db`` and ``hagerman_leak_db``
+  (:mod:`benchmarks.metrics.distortion`) from the two Hagerman runs' replayed operations: ``W1`` is
+  the Result of ``s + n`` (the row's own run, whose replays the row already has), ``W2`` that
+  of ``s - n`` (the Hagerman run); each is replayed on the speech and on the noise (``+n``).
+  Replayable systems only; no extra enhancer run.
+* :func:`g160_columns` -- ``g160_snri_db``, ``g160_tnlr_db``, ``g160_dsn_db``
+  (:mod:`benchmarks.metrics.g160`): from the replayed parts for white boxes, from mixture and output
+  for black boxes.
+* :func:`attribution_columns` -- ``snr_i_spectral_db``, ``snr_i_spatial_db`` and the per-octave
+  SNR-I as JSON in ``snr_i_octave_json`` (:mod:`benchmarks.metrics.attribution`).
+
+Every signal handed in is 1-D, latency-aligned and as long as the row's aligned reference.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from benchmarks.metrics import speech as M
+from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
+from benchmarks.metrics.distortion import hagerman_leak_db, speech_jitter_db
+from benchmarks.metrics.g160 import g160_measures, g160_measures_blackbox
+
+__all__ = ["MEASURE_COLUMNS", "attribution_columns", "distortion_columns", "g160_columns"]
+
+#: Result columns added by this module (SQL types for the store).
+MEASURE_COLUMNS: dict[str, str] = {
+    "speech_jitter_db": "REAL",
+    "hagerman_leak_db": "REAL",
+    "g160_snri_db": "REAL",
+    "g160_tnlr_db": "REAL",
+    "g160_dsn_db": "REAL",
+    "snr_i_spectral_db": "REAL",
+    "snr_i_spatial_db": "REAL",
+    "snr_i_octave_json": "TEXT",
+}
+
+
+def distortion_columns(result2, s, n, s_out1, n_out1, *, latency: int, n_ref: int) -> dict[str, Any]:
+    """``speech_jitter_db`` and ``hagerman_leak_db`` of the first output channel.
+
+    ``result2``: the Result of ``s - n`` (W2); ``s, n`` the enhancer's input speech and noise
+    ``(channels, samples)``; ``s_out1, n_out1``: W1 (the Result of ``s + n``) replayed on them,
+    ``(n_out, samples)``, already computed by the caller; ``n_ref`` the reference length the
+    output is aligned to.
+    """
+    def aligned(v):
+        return M.align(np.asarray(v, dtype=np.float64)[0], np.empty(n_ref), latency_samples=latency)[0]
+
+    w1s, w2s = aligned(s_out1), aligned(result2.replay(s))
+    w1n, w2n = aligned(n_out1), aligned(result2.replay(n))
+    return {"speech_jitter_db": speech_jitter_db(w1s, w2s), "hagerman_leak_db": hagerman_leak_db(w1s, w2s, w1n, w2n)}
+
+
+def g160_columns(clean, fs: int, *, parts=None, mixture=None, output=None) -> dict[str, float]:
+    """G.160 measures: ``parts = (s_in, n_in, s_out, n_out)`` (white box) or ``mixture, output``."""
+    if parts is not None:
+        return g160_measures(clean, *parts, fs)
+    return g160_measures_blackbox(clean, mixture, output, fs)
+
+
+def attribution_columns(s_in, n_in, s_out, n_out, fs: int, *, snr_i_db, self_noise=None) -> dict[str, Any]:
+    """``snr_i_spectral_db``, ``snr_i_spatial_db`` (``snr_i_db`` minus it) and ``snr_i_octave_json``."""
+    spectral = snr_i_spectral_db(s_in, n_in, s_out, fs)
+    octave = octave_snr_i(s_in, n_in, s_out, n_out, fs, self_noise=self_noise)
+    return {
+        "snr_i_spectral_db": spectral,
+        "snr_i_spatial_db": None if snr_i_db is None else float(snr_i_db) - spectral,
+        "snr_i_octave_json": json.dumps(octave, separators=(",", ":")),
+    }

@@ -1,0 +1,132 @@
+"""The package layout's imports run one way (issue 15 part 4).
+
+Oracle: every ``import``/``from ... import`` in every module (module level and inside
+functions: a lazy import is still a dependency), parsed with ``ast``, against the layer table
+below.  A module may import its own layer and the layers beneath it, never one above:
+
+    scenesim core (errors, validate, files, memo, audio) < scenesim.room < scenesim.scene
+    < enhancers, data_recipes < benchmarks core (excinfo, environment) < benchmarks.metrics
+    < benchmarks.store < benchmarks.run < benchmarks.thesis < benchmarks.report < benchmarks.cli
+    < benchmarks.perf
+
+Package ``__init__`` files that only re-export (``scenesim/__init__.py``, the fixed-path shim
+``scenesim/render.py``) are exempt: they are the public surface, not a layer.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("scenesim", "enhancers", "data_recipes", "benchmarks")
+
+# (dotted prefix, rank): the longest matching prefix gives a module's layer.
+LAYERS = [
+    ("scenesim", 0),
+    ("scenesim.room", 1),
+    ("scenesim.scene", 2),
+    ("enhancers", 3),
+    ("data_recipes", 3),
+    ("benchmarks", 4),
+    ("benchmarks.metrics", 5),
+    ("benchmarks.store", 6),
+    ("benchmarks.run", 7),
+    ("benchmarks.thesis", 8),
+    ("benchmarks.report", 9),
+    ("benchmarks.cli", 10),
+    ("benchmarks.perf", 11),
+]
+EXEMPT = {"scenesim", "scenesim.render", "benchmarks"}  # re-export surfaces
+
+
+def rank(module: str) -> int:
+    best = max((p for p, _ in LAYERS if module == p or module.startswith(p + ".")), key=len)
+    return dict(LAYERS)[best]
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports_of(source: str) -> set[str]:
+    """Dotted names of the project modules a module's source imports (absolute imports only)."""
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found.add(node.module)
+            found.update(f"{node.module}.{a.name}" for a in node.names)
+    return {m for m in found if m.split(".")[0] in PACKAGES}
+
+
+def _existing(name: str) -> bool:
+    path = ROOT / Path(*name.split("."))
+    return path.with_suffix(".py").exists() or (path / "__init__.py").exists()
+
+
+def all_modules() -> list[Path]:
+    return sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py"))
+
+
+def sources() -> dict[str, str]:
+    return {module_name(p): p.read_text(encoding="utf-8") for p in all_modules()}
+
+
+def violations(modules: dict[str, str]) -> list[str]:
+    found = []
+    for name, source in sorted(modules.items()):
+        if name in EXEMPT:
+            continue
+        for target in sorted(imports_of(source)):
+            if _existing(target) and rank(target) > rank(name):
+                found.append(f"{name} (layer {rank(name)}) imports {target} (layer {rank(target)})")
+    return found
+
+
+def test_imports_run_one_way():
+    assert violations(sources()) == []
+
+
+@pytest.mark.parametrize(("module", "upward"), [
+    ("scenesim.room.shoebox", "from scenesim.scene.compose import Scene"),
+    ("benchmarks.run.runner", "    from benchmarks.report.core import write_report"),  # lazy, in a def
+    ("benchmarks.metrics.evaluate", "import benchmarks.store.sqlite"),
+])
+def test_the_layer_check_sees_an_upward_import(module, upward):
+    modules = sources()
+    body = f"def f():\n{upward}\n" if upward.startswith(" ") else upward + "\n"
+    modules[module] += "\n" + body
+    assert [v for v in violations(modules) if v.startswith(module + " ")]
+
+
+@pytest.mark.parametrize("package", ["scenesim/room", "scenesim/scene", "benchmarks/metrics",
+                                     "benchmarks/store", "benchmarks/run", "benchmarks/thesis",
+                                     "benchmarks/report", "benchmarks/cli", "benchmarks/perf"])
+def test_each_job_is_a_package(package):
+    assert (ROOT / package / "__init__.py").exists() or package == "benchmarks/perf"
+    assert list((ROOT / package).glob("*.py"))
+
+
+def test_no_flat_module_is_left_where_a_package_holds_its_job():
+    flat = {p.stem for p in (ROOT / "scenesim").glob("*.py")}
+    assert flat <= {"__init__", "errors", "validate", "files", "memo", "audio", "render"}
+    flat = {p.stem for p in (ROOT / "benchmarks").glob("*.py")}
+    assert flat <= {"__init__", "excinfo", "environment"}
+
+
+def test_public_imports_named_in_the_readme_and_contract_still_work():
+    import benchmarks
+    import enhancers
+    import scenesim
+    from enhancers.testing import check_enhancer
+    from scenesim.render import room_rir
+
+    for name in ("ShoeBox", "image_source_rir", "calibrate_room"):
+        assert callable(getattr(scenesim, name))
+    assert callable(benchmarks.load_results) and callable(enhancers.make)
+    assert callable(check_enhancer) and callable(room_rir)
