@@ -149,56 +149,94 @@ def _check_physical_room(args) -> None:
 
 
 def run(args) -> int:
-    from scenesim.room.render import room_rir
-    from scenesim.scene.geometry import DEFAULT_SPACING_M, MicPair
-
     check_cli_fs("--fs", args.fs)
     _check_physical_room(args)
     out = prepare_out_dir("--out", args.out)
-    absorption = None
-    if args.absorption is not None:
-        if len(args.absorption) not in (1, 6):
-            raise ParameterError("--absorption", args.absorption, "1 or 6 values")
-        absorption = args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
+    if args.format not in FORMATS:
+        raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
     with options_named(_OPTIONS):
-        room = _build_room(args, absorption)
+        room = _build_room(args, _absorption(args))
+    mics = _mics(args)
+    directivity = _directivity(args)
+    # The saved RIR depends only on the user's settings; --compare picks its own order for
+    # the comparison and must not change what is written.
+    h = _render(args, room, mics, directivity)
+    _warn_rt60_miss(h, args.fs, args)
+    written = _save_rir(out, h, args.fs, args.format)
+    meta = _rir_meta(args, room, mics, h, directivity)
+    write_json_atomic(out / "rir.json", meta)
+    written.append(out / "rir.json")
+    print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
+          f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
+    if args.compare:
+        # --compare uses pyroomacoustics' inverse-Sabine order unless --max-order was given.
+        order = args.max_order
+        if order is None:
+            order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
+        if room.is_flat:
+            written += _compare_flat(args, room, mics, order, directivity, h, out)
+        else:
+            written += _compare_bands(room, args, mics, order, out)
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def _absorption(args):
+    """``--absorption``: None, one value or one per wall."""
+    if args.absorption is None:
+        return None
+    if len(args.absorption) not in (1, 6):
+        raise ParameterError("--absorption", args.absorption, "1 or 6 values")
+    return args.absorption[0] if len(args.absorption) == 1 else tuple(args.absorption)
+
+
+def _mics(args) -> np.ndarray:
+    """Mic positions ``(n_mics, 3)`` in m: ``--pair-center`` (with ``--spacing``) or ``--mic``."""
+    from scenesim.scene.geometry import DEFAULT_SPACING_M, MicPair
+
     if args.pair_center is not None:
         spacing = DEFAULT_SPACING_M if args.spacing is None else args.spacing
         with options_named(_OPTIONS):
-            mics = MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
-    else:
-        if args.spacing is not None:
-            raise ParameterError("--spacing", args.spacing, "--spacing only together with --pair-center")
-        mics = np.asarray(args.mic, dtype=float)
-    if args.format not in FORMATS:
-        raise ParameterError("format", args.format, "one of " + ", ".join(FORMATS))
-    # The saved RIR depends only on the user's settings; --compare picks its own order for
-    # the comparison and must not change what is written.
-    max_order = args.max_order
-    directivity = _directivity(args)
+            return MicPair(tuple(args.pair_center), spacing, args.pair_azimuth).positions_m
+    if args.spacing is not None:
+        raise ParameterError("--spacing", args.spacing, "--spacing only together with --pair-center")
+    return np.asarray(args.mic, dtype=float)
+
+
+def _render(args, room, mics, directivity) -> np.ndarray:
+    """The RIR ``(n_mics, n_taps)`` the flags ask for; a non-finite one is refused."""
+    from scenesim.room.render import room_rir
+
     hybrid_kw = {"mixing_time_s": args.mixing_time, "seed": args.seed} if args.method == "hybrid" else {}
     with options_named(_OPTIONS):
         h = room_rir(
-            room, args.source, mics, fs=args.fs, max_order=max_order, length_s=args.length,
+            room, args.source, mics, fs=args.fs, max_order=args.max_order, length_s=args.length,
             method=args.method, highpass_hz=args.highpass if args.highpass else None,
             directivity=directivity, **hybrid_kw,
         )
     if not np.all(np.isfinite(h)):
         raise ParameterError("--source/--mic", tuple(args.source), "positions giving a finite RIR")
-    _warn_rt60_miss(h, args.fs, args)
-    # --compare uses pyroomacoustics' inverse-Sabine order unless --max-order was given.
-    compare_order = max_order
-    if args.compare and compare_order is None:
-        compare_order = pyroomacoustics_max_order(room.dims_m, room.nominal_rt60_s, room.c)
+    return h
+
+
+def _save_rir(out: Path, h: np.ndarray, fs: int, fmt: str) -> list[Path]:
+    """``rir.npy`` and/or ``rir.wav`` (float, one channel per mic); the paths written."""
     written = []
-    if args.format in ("npy", "both"):
+    if fmt in ("npy", "both"):
         np.save(out / "rir.npy", h)
         written.append(out / "rir.npy")
-    if args.format in ("wav", "both"):
+    if fmt in ("wav", "both"):
         import soundfile as sf
 
-        sf.write(out / "rir.wav", h.T, args.fs, subtype="FLOAT")
+        sf.write(out / "rir.wav", h.T, fs, subtype="FLOAT")
         written.append(out / "rir.wav")
+    return written
+
+
+def _rir_meta(args, room, mics, h, directivity) -> dict:
+    """``rir.json``: the room, the geometry, the render settings and the ISO 3382 parameters."""
+    hybrid = args.method == "hybrid"
     meta = {
         "dims_m": list(room.dims_m),
         "wall_absorption": room.wall_absorption.tolist(),
@@ -209,11 +247,11 @@ def run(args) -> int:
         "source_m": list(map(float, args.source)),
         "mics_m": mics.tolist(),
         "fs": args.fs,
-        "max_order": max_order,
+        "max_order": args.max_order,
         "n_taps": int(h.shape[1]),
         "method": args.method,
-        "mixing_time_s": args.mixing_time if args.method == "hybrid" else None,
-        "seed": args.seed if args.method == "hybrid" else None,
+        "mixing_time_s": args.mixing_time if hybrid else None,
+        "seed": args.seed if hybrid else None,
         "directivity": None if directivity is None else {
             "kind": args.directivity, "coefficients": directivity.coefficients,
             "bands_hz": directivity.bands_hz, "azimuth_deg": directivity.azimuth_deg,
@@ -224,48 +262,43 @@ def run(args) -> int:
     meta.update(_band_meta(room))
     meta["highpass_hz"] = args.highpass if args.highpass else None
     meta["iso3382"] = _iso3382(room, args, mics, h, directivity)
-    write_json_atomic(out / "rir.json", meta)
-    written.append(out / "rir.json")
-    print(f"RIR {h.shape[0]} mic(s) x {h.shape[1]} taps at {args.fs} Hz; "
-          f"wall absorption {np.round(room.wall_absorption, 4).tolist()}")
-    if args.compare and not room.is_flat:
-        written += _compare_bands(room, args, mics, compare_order, out)
-    elif args.compare:
-        from scenesim.room.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
+    return meta
 
-        # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
-        method = "auto" if args.method == "hybrid" else args.method
-        # pyroomacoustics' ISM is specular: compare the specular part; scattering below.
-        specular = dataclasses.replace(room, scattering=None)
-        check = compare_with_pyroomacoustics(
-            specular, args.source, mics, fs=args.fs, max_order=compare_order, method=method
-        )
-        numbers = check.to_dict()
-        write_json_atomic(out / "crosscheck.json", numbers)
-        plot_crosscheck(check, path=out / "crosscheck.png")
-        written += [out / "crosscheck.json", out / "crosscheck.png"]
-        print(f"pyroomacoustics 0.10.1 cross-check (max_order {compare_order}, {check.n_images} images):")
-        print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
-        print(f"  argmax equal        {check.argmax_equal}")
-        err = check.inter_mic_delay_error_samples
-        if err == err:  # NaN with a single mic: there is no inter-mic delay to compare
-            print(f"  inter-mic delay err {err:.2e} samples")
-        else:
-            print("  inter-mic delay err n/a (needs two or more mics)")
-        print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
-              f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
-        if directivity is not None:
-            numbers["directivity"] = _compare_directivity(args, room, mics, compare_order, directivity)
-            write_json_atomic(out / "crosscheck.json", numbers)
-        if args.method == "hybrid":
-            numbers["hybrid"] = _compare_hybrid(args, room, mics, compare_order, directivity, h)
-            write_json_atomic(out / "crosscheck.json", numbers)
-        if room.scattering is not None:
-            numbers["scattering"] = _compare_scattering(room, args, mics)
-            write_json_atomic(out / "crosscheck.json", numbers)
-    for path in written:
-        print(f"wrote {path}")
-    return 0
+
+def _compare_flat(args, room, mics, order, directivity, h, out: Path) -> list[Path]:
+    """The omni (flat-absorption) cross-check against pyroomacoustics, plus directivity, hybrid and
+    scattering where they apply; ``crosscheck.json``/``.png`` and the lines printed."""
+    from scenesim.room.crosscheck import compare_with_pyroomacoustics, plot_crosscheck
+
+    # The omni comparison uses the full ISM: a hybrid tail is stochastic by design.
+    method = "auto" if args.method == "hybrid" else args.method
+    # pyroomacoustics' ISM is specular: compare the specular part; scattering below.
+    specular = dataclasses.replace(room, scattering=None)
+    check = compare_with_pyroomacoustics(specular, args.source, mics, fs=args.fs, max_order=order, method=method)
+    numbers = check.to_dict()
+    _print_flat_check(check, order)
+    if directivity is not None:
+        numbers["directivity"] = _compare_directivity(args, room, mics, order, directivity)
+    if args.method == "hybrid":
+        numbers["hybrid"] = _compare_hybrid(args, room, mics, order, directivity, h)
+    if room.scattering is not None:
+        numbers["scattering"] = _compare_scattering(room, args, mics)
+    write_json_atomic(out / "crosscheck.json", numbers)
+    plot_crosscheck(check, path=out / "crosscheck.png")
+    return [out / "crosscheck.json", out / "crosscheck.png"]
+
+
+def _print_flat_check(check, order) -> None:
+    print(f"pyroomacoustics 0.10.1 cross-check (max_order {order}, {check.n_images} images):")
+    print(f"  rel L2 per mic      {', '.join(f'{v:.2e}' for v in check.rel_l2)}")
+    print(f"  argmax equal        {check.argmax_equal}")
+    err = check.inter_mic_delay_error_samples
+    if err == err:  # NaN with a single mic: there is no inter-mic delay to compare
+        print(f"  inter-mic delay err {err:.2e} samples")
+    else:
+        print("  inter-mic delay err n/a (needs two or more mics)")
+    print(f"  T30 ours / theirs   {check.t30_ours_s:.3f} s / {check.t30_theirs_s:.3f} s "
+          f"(target {check.target_rt60_s:.3f} s; theirs off by {100 * check.their_rt60_error:+.1f} %)")
 
 
 def _build_room(args, absorption):

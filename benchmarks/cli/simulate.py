@@ -60,105 +60,56 @@ def add_parser(subparsers):
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
-    p.add_argument(
-        "--speech", type=Path, metavar="FILE", help="clean speech file (channel 0 is used)"
-    )
-    noise = p.add_mutually_exclusive_group()
-    noise.add_argument(
-        "--noise",
-        type=Path,
-        metavar="FILE",
-        help="noise file (mono, or 2 ch for diffuse/incoherent)",
-    )
-    noise.add_argument(
-        "--noise-type",
-        choices=("white", "pink"),
-        default="white",
-        help="generated noise (default white)",
-    )
-    p.add_argument(
-        "--duration-s",
-        type=float,
-        metavar="S",
-        help=f"length in seconds (default: the speech file, or {DEFAULT_DURATION_S:g} s)",
-    )
-    p.add_argument(
-        "--snr-db", type=float, default=0.0, help="SNR at the reference mic in dB (default 0)"
-    )
-    p.add_argument(
-        "--snr-mode",
-        choices=SNR_MODES,
-        default="total",
-        help="speech power: whole signal or active level",
-    )
-    p.add_argument(
-        "--speech-az", type=float, default=45.0, metavar="DEG", help="speech azimuth (default 45)"
-    )
-    p.add_argument(
-        "--noise-az", type=float, default=270.0, metavar="DEG", help="noise azimuth (default 270)"
-    )
-    p.add_argument(
-        "--distance-m",
-        type=float,
-        default=1.0,
-        help="source distance from the pair centre (default 1.0)",
-    )
-    p.add_argument(
-        "--field", choices=NOISE_FIELDS, default="point", help="noise field (default point)"
-    )
-    p.add_argument(
-        "--near-field", action="store_true", help="free field: point sources instead of plane waves"
-    )
-    p.add_argument(
-        "--rt60", type=float, metavar="S", help="reverberation time of the room (needs --room)"
-    )
-    p.add_argument(
-        "--room",
-        type=float,
-        nargs=3,
-        metavar=("LX", "LY", "LZ"),
-        help="shoebox dimensions in metres (needs --rt60)",
-    )
-    p.add_argument(
-        "--pair-center",
-        type=float,
-        nargs=3,
-        metavar=("X", "Y", "Z"),
-        help="pair centre in metres (default: room centre, or the origin)",
-    )
-    p.add_argument(
-        "--reference",
-        choices=REFERENCES,
-        default="direct",
-        help="reference signal in a room (default direct)",
-    )
-    p.add_argument(
-        "--sensor-noise-db", type=float, help="sensor self-noise relative to the speech power (dB)"
-    )
-    p.add_argument(
-        "--spacing-m", type=float, default=0.0214, help="mic spacing in metres (default 0.0214)"
-    )
-    sensors = p.add_argument_group("sensors (scenesim.scene.sensors; default: ideal identical noiseless mics)")
-    sensors.add_argument("--mic-gain-db", type=float, default=0.0, metavar="DB", help="rear mic sensitivity re front")
-    sensors.add_argument("--mic-phase-deg", type=float, default=0.0, metavar="DEG", help="rear mic phase re front")
-    sensors.add_argument(
-        "--mic-highpass-hz",
-        type=float,
-        nargs="+",
-        metavar="HZ",
-        help="first-order high-pass corner for both mics, or FRONT REAR",
-    )
-    sensors.add_argument("--self-noise-dba", type=float, metavar="DBA", help="mic self-noise in dBA SPL (e.g. 30)")
-    sensors.add_argument(
-        "--speech-spl-db", type=float, default=65.0, metavar="DB", help="talker level at the reference mic (default 65)"
-    )
-    p.add_argument("--wind-speed-mps", type=float, default=5.0, metavar="M/S", help="wind speed of --field wind")
-    p.add_argument(
-        "--snr-band-hz", type=float, nargs=2, metavar=("LO", "HI"), help="set the SNR in this band (default: full band)"
-    )
+    _add_signal_args(p)
+    _add_geometry_args(p)
+    _add_sensor_args(p)
     p.add_argument("--fs", type=int, default=16000, help="sampling rate in Hz (default 16000)")
     p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
     p.set_defaults(func=run)
+
+
+def _add_signal_args(p) -> None:
+    """Speech and noise sources, length, SNR and how it is measured."""
+    p.add_argument("--speech", type=Path, metavar="FILE", help="clean speech file (channel 0 is used)")
+    noise = p.add_mutually_exclusive_group()
+    noise.add_argument("--noise", type=Path, metavar="FILE", help="noise file (mono, or 2 ch for diffuse/incoherent)")
+    noise.add_argument("--noise-type", choices=("white", "pink"), default="white", help="generated noise (default white)")
+    p.add_argument("--duration-s", type=float, metavar="S",
+                   help=f"length in seconds (default: the speech file, or {DEFAULT_DURATION_S:g} s)")
+    p.add_argument("--snr-db", type=float, default=0.0, help="SNR at the reference mic in dB (default 0)")
+    p.add_argument("--snr-mode", choices=SNR_MODES, default="total", help="speech power: whole signal or active level")
+    p.add_argument("--snr-band-hz", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="set the SNR in this band (default: full band)")
+    p.add_argument("--field", choices=NOISE_FIELDS, default="point", help="noise field (default point)")
+    p.add_argument("--wind-speed-mps", type=float, default=5.0, metavar="M/S", help="wind speed of --field wind")
+
+
+def _add_geometry_args(p) -> None:
+    """Where the sources and the pair are: free field or a shoebox room."""
+    p.add_argument("--speech-az", type=float, default=45.0, metavar="DEG", help="speech azimuth (default 45)")
+    p.add_argument("--noise-az", type=float, default=270.0, metavar="DEG", help="noise azimuth (default 270)")
+    p.add_argument("--distance-m", type=float, default=1.0, help="source distance from the pair centre (default 1.0)")
+    p.add_argument("--near-field", action="store_true", help="free field: point sources instead of plane waves")
+    p.add_argument("--rt60", type=float, metavar="S", help="reverberation time of the room (needs --room)")
+    p.add_argument("--room", type=float, nargs=3, metavar=("LX", "LY", "LZ"),
+                   help="shoebox dimensions in metres (needs --rt60)")
+    p.add_argument("--pair-center", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="pair centre in metres (default: room centre, or the origin)")
+    p.add_argument("--reference", choices=REFERENCES, default="direct", help="reference signal in a room (default direct)")
+    p.add_argument("--spacing-m", type=float, default=0.0214, help="mic spacing in metres (default 0.0214)")
+
+
+def _add_sensor_args(p) -> None:
+    """The sensor model (scenesim.scene.sensors); default: ideal identical noiseless mics."""
+    p.add_argument("--sensor-noise-db", type=float, help="sensor self-noise relative to the speech power (dB)")
+    sensors = p.add_argument_group("sensors (scenesim.scene.sensors; default: ideal identical noiseless mics)")
+    sensors.add_argument("--mic-gain-db", type=float, default=0.0, metavar="DB", help="rear mic sensitivity re front")
+    sensors.add_argument("--mic-phase-deg", type=float, default=0.0, metavar="DEG", help="rear mic phase re front")
+    sensors.add_argument("--mic-highpass-hz", type=float, nargs="+", metavar="HZ",
+                         help="first-order high-pass corner for both mics, or FRONT REAR")
+    sensors.add_argument("--self-noise-dba", type=float, metavar="DBA", help="mic self-noise in dBA SPL (e.g. 30)")
+    sensors.add_argument("--speech-spl-db", type=float, default=65.0, metavar="DB",
+                         help="talker level at the reference mic (default 65)")
 
 
 def builtin_test_signal(n: int, fs: int, rng: np.random.Generator) -> np.ndarray:

@@ -422,62 +422,70 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
     """
     x, s, n, y = signals
     ref = _ref_row(rendered)
-    s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0]
-    n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0]
     try:
         s_out, n_out, row["snr_method"] = _components(enhancer, result, x, s, n, fs, errors)
     except Exception as exc:
         errors.append(f"snr_out: {_exc_text(exc)}")
         s_out = n_out = None
-
     y_al, ref_al = M.align(y[0], ref, latency_samples=latency)
-    m = ref_al.size
     if s_out is not None:
-        s_al, _ = M.align(s_out[0], ref, latency_samples=latency)
-        n_al, _ = M.align(n_out[0], ref, latency_samples=latency)
-        row["snr_out_db"] = _try(errors, "snr_out", M.snr_db, s_al, n_al)
-        snr_in = _try(errors, "snr_in", M.snr_db, s0[:m], n0[:m])
-        row["snr_i_db"] = _delta(row["snr_out_db"], snr_in)
-        band = inband_hz(rendered)
-        row["snr_out_band_db"] = _try(errors, "snr_out_band", _band_snr_db, s_al, n_al, fs, band)
-        band_in = _input_band_snr(row, errors, s0, n0, m, fs, band)
-        row["snr_i_band_db"] = _delta(row["snr_out_band_db"], band_in)
-        hag, result2 = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"]) or (None, None)
-        row["snr_out_hagerman_db"] = hag
-        row["snr_i_hagerman_db"] = _delta(hag, snr_in)
-        self_noise = getattr(rendered, "self_noise_image", None)
-        if self_noise is not None and np.any(self_noise):
-            limit = _try(errors, "snr_out_limit", M.snr_db, s0[:m], np.asarray(self_noise)[0][:m])
-            row["snr_out_limit_db"] = None if limit is None else limit + SELF_NOISE_ARRAY_GAIN_DB
-        # Independent speech and noise stay nearly uncorrelated through a fixed or slowly
-        # varying filter.  A large cross term means the components were scaled up where
-        # they cancel (e.g. a gain > 1 on bins where |S + N| << |S|, |N|); their powers,
-        # hence the output SNR, then describe the gain mask more than the output.
-        p_y = float(np.mean((s_al + n_al) ** 2))
-        cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
-        row["snr_cross_ratio"] = cross
-        _new_measures(row, errors, rendered, result2, (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
-        if abs(cross) > CROSS_WARN_RATIO:
-            warnings.warn(
-                f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
-                f"correlated: 2<s_out, n_out> = {cross:+.0%} of the output power; "
-                "snr_out_db is unreliable for this row",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-
+        _snr_columns(row, enhancer, rendered, result, signals, (s_out, n_out), (ref, y_al), fs, latency, errors)
     # Latency check on the speech component (cleaner than the noisy output) when we have it.
-    probe = s_out[0] if s_out is not None else y[0]
+    _latency_columns(row, s_out[0] if s_out is not None else y[0], ref, fs, latency, tol, errors)
+    _quality_columns(row, rendered, ref, (ref_al, y_al), fs, latency, errors)
+    row["trace_json"] = _try(errors, "trace_json", _trace_json, result.trace, x.shape[1], fs)
+
+
+def _snr_columns(row, enhancer, rendered, result, signals, parts, refs, fs, latency, errors) -> None:
+    """Replay and Hagerman SNRs (full band and in band), the self-noise bound, the cross term and
+    the issue-16 measures, from the output's speech and noise parts ``parts = (s_out, n_out)``."""
+    x, s, n, y = signals
+    s_out, n_out = parts
+    ref, y_al = refs
+    s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0]
+    n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0]
+    s_al, _ = M.align(s_out[0], ref, latency_samples=latency)
+    n_al, _ = M.align(n_out[0], ref, latency_samples=latency)
+    m = s_al.size
+    row["snr_out_db"] = _try(errors, "snr_out", M.snr_db, s_al, n_al)
+    snr_in = _try(errors, "snr_in", M.snr_db, s0[:m], n0[:m])
+    row["snr_i_db"] = _delta(row["snr_out_db"], snr_in)
+    band = inband_hz(rendered)
+    row["snr_out_band_db"] = _try(errors, "snr_out_band", _band_snr_db, s_al, n_al, fs, band)
+    band_in = _input_band_snr(row, errors, s0, n0, m, fs, band)
+    row["snr_i_band_db"] = _delta(row["snr_out_band_db"], band_in)
+    hag, result2 = _try(errors, "snr_hagerman", _hagerman_snr_out_db, enhancer, result, (x, s, n, y), fs, latency, ref, row["snr_method"], row["snr_out_db"]) or (None, None)
+    row["snr_out_hagerman_db"] = hag
+    row["snr_i_hagerman_db"] = _delta(hag, snr_in)
+    self_noise = getattr(rendered, "self_noise_image", None)
+    if self_noise is not None and np.any(self_noise):
+        limit = _try(errors, "snr_out_limit", M.snr_db, s0[:m], np.asarray(self_noise)[0][:m])
+        row["snr_out_limit_db"] = None if limit is None else limit + SELF_NOISE_ARRAY_GAIN_DB
+    # Independent speech and noise stay nearly uncorrelated through a fixed or slowly
+    # varying filter.  A large cross term means the components were scaled up where
+    # they cancel (e.g. a gain > 1 on bins where |S + N| << |S|, |N|); their powers,
+    # hence the output SNR, then describe the gain mask more than the output.
+    p_y = float(np.mean((s_al + n_al) ** 2))
+    cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
+    row["snr_cross_ratio"] = cross
+    _new_measures(row, errors, rendered, result2, (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
+    if abs(cross) > CROSS_WARN_RATIO:
+        warnings.warn(
+            f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
+            f"correlated: 2<s_out, n_out> = {cross:+.0%} of the output power; "
+            "snr_out_db is unreliable for this row",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+def _latency_columns(row, probe, ref, fs, latency, tol, errors) -> None:
+    """``latency_est_samples`` and, when it misses the declared latency by more than ``tol``
+    samples (default 0.5 ms), a ``latency_check`` note."""
     if tol is None:
         tol = max(2, int(round(0.5e-3 * fs)))
-    lag = _try(
-        errors,
-        "latency_check",
-        M.estimate_lag,
-        probe,
-        ref,
-        max_lag=latency + max(1, int(round(LAG_SEARCH_S * fs))),
-    )
+    lag = _try(errors, "latency_check", M.estimate_lag, probe, ref,
+               max_lag=latency + max(1, int(round(LAG_SEARCH_S * fs))))
     row["latency_est_samples"] = lag
     if lag is not None and abs(lag - latency) > tol:
         row["latency_check"] = (
@@ -485,6 +493,10 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
             f"matches the reference at a lag of {lag} samples (tolerance {tol})"
         )
 
+
+def _quality_columns(row, rendered, ref, aligned, fs, latency, errors) -> None:
+    """PESQ, STOI, ESTOI, segmental SNR and SI-SDR of the output and their improvements."""
+    ref_al, y_al = aligned
     mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0]
     if latency == 0 and ref_al.size == ref.size and np.array_equal(y_al, mix0[: ref.size]):
         # The output is the unprocessed reference-mic signal (passthrough): the very signals
@@ -497,7 +509,6 @@ def _measure(row, enhancer, rendered, result, signals, fs, latency, *, tol, erro
         row[f"{name}_i"] = _delta(row[f"{name}_out"], row[f"{name}_in"])
     row["segsnr_i_db"] = _delta(row["segsnr_out_db"], row["segsnr_in_db"])
     row["si_sdr_i_db"] = _delta(row["si_sdr_out_db"], row["si_sdr_in_db"])
-    row["trace_json"] = _try(errors, "trace_json", _trace_json, result.trace, x.shape[1], fs)
 
 
 def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -> None:
