@@ -106,8 +106,12 @@ def test_per_octave_calibration_within_5_percent_on_the_combined_rir():
     np.testing.assert_allclose(x / x[0], -np.log1p(-profile) / -np.log1p(-profile[0]), rtol=1e-12)
 
 
-def test_memoised(monkeypatch):
-    """A second identical request does not run the loop (memory level of cached_array)."""
+def test_memoised(monkeypatch, tmp_path):
+    """A second identical request does not run the loop (memory level of cached_array).
+
+    The disk cache points at an empty folder: a room another test (or an earlier run) stored
+    there must not satisfy the first request."""
+    monkeypatch.setenv("SCENESIM_CACHE", str(tmp_path))
     clear_memory_cache()
     calls = []
     real = calibration._calibrate
@@ -135,7 +139,7 @@ def test_bad_requests_raise(kwargs, name):
 def test_room_module_does_not_import_the_renderer():
     """The room <-> ISM cycle is broken: scenesim/room/shoebox.py imports neither ism, render nor
     calibration, not even inside functions (oracle: its syntax tree)."""
-    tree = ast.parse(Path(calibration.__file__).with_name("room.py").read_text())
+    tree = ast.parse(Path(calibration.__file__).with_name("shoebox.py").read_text())
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     assert not imported & {"scenesim.room.ism", "scenesim.room.render", "scenesim.room.calibration", "scenesim.room.cache"}

@@ -48,6 +48,7 @@ import numpy as np
 from scenesim.errors import MetricError, ParameterError
 
 __all__ = [
+    "G160Undefined",
     "ACTIVE_MARGIN_DB",
     "FRAME_S",
     "G160_COLUMNS",
@@ -64,8 +65,13 @@ FRAME_S = 0.010
 ACTIVE_MARGIN_DB = 15.9
 #: A noise-only frame has clean speech more than this many dB below the active level.
 PAUSE_BELOW_ACTIVE_DB = 30.0
-#: Fewer speech or noise-only frames than this: the measures are undefined (MetricError).
+#: Fewer speech or noise-only frames than this: the measures are undefined (G160Undefined).
 MIN_FRAMES = 10
+
+
+class G160Undefined(MetricError):
+    """The signal has too few speech or noise-only frames for G.160 (e.g. no speech pauses):
+    the measures are undefined, which is not an error of the system under test."""
 #: Columns :func:`g160_measures` fills (fixed names, issue 16).
 G160_COLUMNS = ("g160_snri_db", "g160_tnlr_db", "g160_dsn_db")
 #: The recommendation's target ranges (lo, hi) in dB, None for an open end (see module text).
@@ -112,7 +118,7 @@ def _log_mean(p: np.ndarray) -> float:
 
 def _check(speech: np.ndarray, pause: np.ndarray) -> None:
     if speech.sum() < MIN_FRAMES or pause.sum() < MIN_FRAMES:
-        raise MetricError(
+        raise G160Undefined(
             f"G.160: {int(speech.sum())} speech and {int(pause.sum())} noise-only frames "
             f"(need {MIN_FRAMES} of each)"
         )
@@ -155,7 +161,7 @@ def _estimated_snr(p_frames: np.ndarray, speech: np.ndarray, pause: np.ndarray) 
     est = p_frames[speech] - noise_mean
     est = est[est > 0.0]  # frames whose estimate is not positive say nothing about the speech
     if est.size < MIN_FRAMES:
-        raise MetricError("G.160: the speech is not above the noise in enough frames to estimate it")
+        raise G160Undefined("G.160: the speech is not above the noise in enough frames to estimate it")
     noise_level = _log_mean(p_frames[pause])
     return _log_mean(est) - noise_level, noise_level
 

@@ -26,7 +26,12 @@ import numpy as np
 from benchmarks.metrics import speech as M
 from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
 from benchmarks.metrics.distortion import hagerman_leak_db, speech_jitter_db
-from benchmarks.metrics.g160 import g160_measures, g160_measures_blackbox
+from benchmarks.metrics.g160 import (
+    G160_COLUMNS,
+    G160Undefined,
+    g160_measures,
+    g160_measures_blackbox,
+)
 
 __all__ = ["MEASURE_COLUMNS", "attribution_columns", "distortion_columns", "g160_columns"]
 
@@ -59,11 +64,18 @@ def distortion_columns(result2, s, n, s_out1, n_out1, *, latency: int, n_ref: in
     return {"speech_jitter_db": speech_jitter_db(w1s, w2s), "hagerman_leak_db": hagerman_leak_db(w1s, w2s, w1n, w2n)}
 
 
-def g160_columns(clean, fs: int, *, parts=None, mixture=None, output=None) -> dict[str, float]:
-    """G.160 measures: ``parts = (s_in, n_in, s_out, n_out)`` (white box) or ``mixture, output``."""
-    if parts is not None:
-        return g160_measures(clean, *parts, fs)
-    return g160_measures_blackbox(clean, mixture, output, fs)
+def g160_columns(clean, fs: int, *, parts=None, mixture=None, output=None) -> dict[str, float | None]:
+    """G.160 measures: ``parts = (s_in, n_in, s_out, n_out)`` (white box) or ``mixture, output``.
+
+    Empty (None) where the recommendation's measures are undefined for the signal (too few
+    speech or noise-only frames, e.g. speech without pauses): not an error of the row.
+    """
+    try:
+        if parts is not None:
+            return g160_measures(clean, *parts, fs)
+        return g160_measures_blackbox(clean, mixture, output, fs)
+    except G160Undefined:
+        return dict.fromkeys(G160_COLUMNS)
 
 
 def attribution_columns(s_in, n_in, s_out, n_out, fs: int, *, snr_i_db, self_noise=None) -> dict[str, Any]:
