@@ -76,10 +76,9 @@ def _das():
     return with_geometry(make("das"), spacing_m=0.0214)
 
 
-def test_replay_through_a_linear_enhancer_matches_processing_each_part(case):
-    # Oracle: a fixed (LTI) beamformer processed on each part separately -- no replay --
-    # gives the output parts; the ratios over the latency-aligned first channel must agree
-    # with the replayed ones to 1e-9 dB.
+def _das_row_and_parts(case):
+    """The DAS row, and the direct, early, late and noise parts each processed on their own
+    (no replay) and latency-aligned to the reference: the oracle of the replayed ratios."""
     rendered, parts, _ = case
     enh = _das()
     row = _row(enh, case)
@@ -89,7 +88,14 @@ def test_replay_through_a_linear_enhancer_matches_processing_each_part(case):
     def out(x):
         return M.align(enh.process(x, FS).output[0], ref, latency_samples=lat)[0]
 
-    d, e, late, n = (out(x) for x in (parts.direct, parts.early, parts.late, rendered.noise_image))
+    return row, tuple(out(x) for x in (parts.direct, parts.early, parts.late, rendered.noise_image))
+
+
+def test_replay_through_a_linear_enhancer_matches_processing_each_part(case):
+    # Oracle: a fixed (LTI) beamformer processed on each part separately -- no replay --
+    # gives the output parts; the ratios over the latency-aligned first channel must agree
+    # with the replayed ones to 1e-9 dB.
+    row, (d, e, late, n) = _das_row_and_parts(case)
     assert row["sinr_out_db"] == pytest.approx(M.snr_db(d + e, late + n), abs=1e-9)
     assert row["drr_out_db"] == pytest.approx(M.snr_db(d, e + late), abs=1e-9)
     assert row["c50_out_db"] == pytest.approx(M.snr_db(d + e, late), abs=1e-9)
@@ -127,15 +133,7 @@ def test_sinr_i_db_of_a_beamformer_is_the_independent_difference_with_its_sign(c
     # Oracle: each part processed separately (no replay), ratios by the definition over the
     # latency-aligned samples; SINR-I = out - in, non-zero, with the oracle's sign (1e-9 dB).
     rendered, parts, _ = case
-    enh = _das()
-    row = _row(enh, case)
-    lat = enh.tags.latency_samples
-    ref = rendered.reference[0]
-
-    def out(x):
-        return M.align(enh.process(x, FS).output[0], ref, latency_samples=lat)[0]
-
-    d, e, late, n = (out(x) for x in (parts.direct, parts.early, parts.late, rendered.noise_image))
+    row, (d, e, late, n) = _das_row_and_parts(case)
     m = d.size
     p = lambda x: float(np.sum(x**2))  # noqa: E731
     sinr_in = 10 * np.log10(p(parts.target[0][:m]) / p(parts.late[0][:m] + rendered.noise_image[0][:m]))
