@@ -159,6 +159,19 @@ class DataSource:
         present = self._scan.noise_types if self._scan is not None else ()
         return tuple(sorted(set(present) | set(SYNTHESIZABLE)))
 
+    def plays(self, noise_type: str) -> str | None:
+        """The noise type a sweep's ``noise_type`` plays, or None when there is none.
+
+        An available type plays itself; a variant ``<type>-<name>`` that is not available
+        itself (``factory-hall``: the factory noise, rendered in its own field) plays ``<type>``.
+        """
+        available = self.noise_types()
+        if not isinstance(noise_type, str):
+            return None
+        if noise_type not in available and "-" in noise_type:
+            noise_type = noise_type.split("-", 1)[0]
+        return noise_type if noise_type in available else None
+
     @property
     def local_noise_types(self) -> tuple[str, ...]:
         """Noise types backed by files of the directory (empty for the built-in source)."""
@@ -218,11 +231,8 @@ class DataSource:
         duration_s = check_positive("duration_s", duration_s)
         seed = check_int("seed", seed, minimum=0)
         n_channels = check_int("n_channels", n_channels, minimum=1)
-        asked = noise_type
-        if isinstance(noise_type, str) and noise_type not in self.noise_types() and "-" in noise_type:
-            # a variant "<type>-<name>" (e.g. "factory-hall": its own field in a sweep) plays <type>
-            noise_type = noise_type.split("-", 1)[0]
-        if not isinstance(noise_type, str) or noise_type not in self.noise_types():
+        asked, noise_type = noise_type, self.plays(noise_type)
+        if noise_type is None:
             # name what the user asked for, not the base type a variant was read as
             raise ParameterError("noise_type", asked, "one of " + ", ".join(self.noise_types())
                                  + " (or a variant '<type>-<name>' of one)")

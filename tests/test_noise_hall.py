@@ -6,7 +6,10 @@ reverberant energy exceeds the direct sound's); a variant ``<type>-<name>`` play
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 
 from data_recipes import open_data
 from scenesim.room.cache import cached_rir
@@ -68,3 +71,22 @@ def test_hall_noise_is_linear_in_the_machines():
     first = hall_noise(np.stack([sig[0], 0 * sig[1]]), pair, fs=FS, seed=5)
     second = hall_noise(np.stack([0 * sig[0], sig[1]]), pair, fs=FS, seed=5)
     np.testing.assert_allclose(both, first + second, rtol=0, atol=1e-12)
+
+
+def test_the_pre_run_data_check_accepts_a_variant_and_refuses_an_unknown_noise():
+    # Regression: the runner's check before any work compared noise names with the data's
+    # types and refused 'factory-hall', so the full `phone` preset exited 2 at once (a
+    # `--limit` that skipped the variant hid it).  One rule now (DataSource.plays) for both.
+    from benchmarks.run.runner import _check_data
+    from benchmarks.run.sweep import load_sweep
+    from data_recipes import open_data
+    from scenesim.errors import ConfigError
+
+    conditions = [c for c in load_sweep("phone").conditions() if c.noise == "factory-hall"][:1]
+    assert conditions
+    _check_data(conditions, None)  # no error
+    assert open_data(None).plays("factory-hall") == "factory"
+    assert open_data(None).plays("factory") == "factory" and open_data(None).plays("hall-factory") is None
+    bad = [dataclasses.replace(conditions[0], noise="nonsense-hall")]
+    with pytest.raises(ConfigError, match="'nonsense-hall'"):
+        _check_data(bad, None)

@@ -288,11 +288,10 @@ def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # workers report fallbacks in the rows
             ds = open_data(data_dir, fs=fs)
-        available = set(ds.noise_types())
-        for noise in sorted({c.noise for c in conditions} - available):
+        for noise in sorted(n for n in {c.noise for c in conditions} if ds.plays(n) is None):
             raise ConfigError(
                 f"noise type {noise!r} is neither in the data directory ({ds.description}) nor "
-                f"synthesizable; available: {', '.join(sorted(available))}"
+                f"synthesizable, nor a variant '<type>-<name>' of one; available: {', '.join(ds.noise_types())}"
             )
 
 
