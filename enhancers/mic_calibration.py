@@ -178,9 +178,11 @@ class CalibrationParams(StftParams):
     freeze_level_db: float | None = None
     level_band_hz: tuple[float, float] = (200.0, 7000.0)
     level_floor_s: float = 3.0
+    level_floor_lam: float | None = None
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
     ramp_frames: float = 0.0
+    level_freezes_beam: bool = True
 
     def _check_calibration(self):
         self._check_stft()
@@ -203,9 +205,13 @@ class CalibrationParams(StftParams):
             check_range("freeze_level_db", self.freeze_level_db, 0.0, 60.0)
         _check_band("level_band_hz", self.level_band_hz)
         check_range("level_floor_s", self.level_floor_s, 0.0, 60.0, lo_open=True)
+        if self.level_floor_lam is not None:
+            check_range("level_floor_lam", self.level_floor_lam, 0.0, 1.0, hi_open=True)
         check_range("level_hang_s", self.level_hang_s, 0.0, 10.0)
         check_range("level_ahead_s", self.level_ahead_s, 0.0, 10.0)
         check_range("ramp_frames", self.ramp_frames, 0.0, 1e6)
+        if not isinstance(self.level_freezes_beam, bool):
+            raise ParameterError("level_freezes_beam", self.level_freezes_beam, "True or False")
 
 
 def _check_band(name: str, band) -> None:
@@ -299,7 +305,8 @@ def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         return np.zeros((F, K), dtype=bool), {}
     e = X1.real**2 + X1.imag**2 + X2.real**2 + X2.imag**2
     n_window = max(1, int(math.ceil(float(p.level_floor_s) * fs / int(p.hop))))
-    rule = dict(lam=lam, n_window=n_window, cap=math.inf)
+    floor_lam = None if p.level_floor_lam is None else float(p.level_floor_lam)
+    rule = dict(lam=lam, n_window=n_window, cap=math.inf, floor_lam=floor_lam)
     band = _leave_out_sum(e, _band(p, fs, p.level_band_hz))
     # the filter bank's first frames hold part of a window of signal: too quiet for a floor
     n_start = -(-int(p.frame_len) // int(p.hop)) - 1
@@ -308,7 +315,8 @@ def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         return np.ones((F, K), dtype=bool), {}
     gate = state.q_level
     if state.n_frames <= n_start:  # the smoother starts at the first full frame's level, not at 0
-        gate = dataclasses.replace(gate, pf=band[m].copy())
+        gate = dataclasses.replace(gate, pf=band[m].copy(),
+                                   sf=None if floor_lam is None else band[m].copy(), sb=gate.pb)
     loud, q = power_ratio_gate(band[m:], np.ones_like(band[m:]), state=gate, gate_db=float(p.freeze_level_db),
                                **rule)
     return np.concatenate([np.ones((m, K), dtype=bool), loud]), {"q_level": q}
@@ -428,6 +436,8 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     learn_frozen, now_frozen, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
+    if not p.level_freezes_beam:  # beta and the DAS weight keep the cardioid rules' mask only
+        now_frozen = card
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
     # 1 - lam, then 1 - lam; 0 where frozen
     active = ~learn_frozen

@@ -125,7 +125,8 @@ class RobustElkoBeamformer(SubbandBase):
             record.update(r_hat=r_hat, frozen=frozen)
         # the DAS mix learns only where the calibration does too (no talker); with the calibration's
         # level rule on (the talker-blind mode of issue 16) so does beta
-        talker_blind = self.params.calibrate and self.params.freeze_level_db is not None
+        talker_blind = (self.params.calibrate and self.params.freeze_level_db is not None
+                        and self.params.level_freezes_beam)
         Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=frozen, beta_frozen=frozen if talker_blind else None)
         record.update(beam)
         return Y[None], (cal, sub), record
