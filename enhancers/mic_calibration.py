@@ -138,6 +138,11 @@ from scenesim.validate import check_int, check_range
 
 __all__ = ["CalibrationState", "MicCalibration", "calibration_step"]
 
+# which of the calibration's masks freeze eb-robust's beta / DAS weight in the talker-blind mode
+# (beta always has its own gate too): "both": beta and DAS on the cardioid and level rules;
+# "cardioid": beta on its gate only, DAS on the cardioid rules; "level": beta on the level rule, DAS on both
+BEAM_FREEZE = ("both", "cardioid", "level")
+
 
 @dataclass(frozen=True)
 class CalibrationState:
@@ -182,7 +187,7 @@ class CalibrationParams(StftParams):
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
     ramp_frames: float = 0.0
-    level_freezes_beam: bool = True
+    beam_freeze: str = "both"
 
     def _check_calibration(self):
         self._check_stft()
@@ -210,8 +215,8 @@ class CalibrationParams(StftParams):
         check_range("level_hang_s", self.level_hang_s, 0.0, 10.0)
         check_range("level_ahead_s", self.level_ahead_s, 0.0, 10.0)
         check_range("ramp_frames", self.ramp_frames, 0.0, 1e6)
-        if not isinstance(self.level_freezes_beam, bool):
-            raise ParameterError("level_freezes_beam", self.level_freezes_beam, "True or False")
+        if self.beam_freeze not in BEAM_FREEZE:
+            raise ParameterError("beam_freeze", self.beam_freeze, " or ".join(map(repr, BEAM_FREEZE)))
 
 
 def _check_band(name: str, band) -> None:
@@ -276,8 +281,9 @@ def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_ha
     froze it or the level rule fired from ``n_hang`` frames before it to ``n_ahead`` after it.
 
     Returns ``(skip (F, K)`` for the first ``F`` of the frames (the ones averaged now),
-    ``frozen_now (F, K)`` for the block's frames without the look ahead (what beta and the DAS
-    mix, which cannot wait, use), ``last`` re the next block's first pending frame).
+    ``level_now (F, K)``: the level rule's part for the block's frames without the look ahead
+    (what beta and the DAS mix, which cannot wait, use), ``last`` re the next block's first
+    pending frame).
     """
     n = loud.shape[0]
     F = n - n_ahead
@@ -288,7 +294,7 @@ def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_ha
     before = cs[n_ahead + 1:n + 1] - cs[:F] > 0  # fired within n_ahead frames after the frame
     skip = card[:F] | after[:F] | before
     new_last = lasts[F - 1] - F if F else last - F
-    return skip, (card | after)[n_ahead:], new_last
+    return skip, after[n_ahead:], new_last
 
 
 def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float):
@@ -408,6 +414,17 @@ def estimate_from_averages(avg: np.ndarray, *, band: slice, max_slope: float, sm
 def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
     """Estimate ``r_hat`` for the frames of one block.
 
+    Returns ``(r_hat (F, K), frozen (F, K), state)``, ``frozen`` the mask the DAS weight uses
+    (:func:`calibration_masks_step`'s cardioid mask, or-ed with its level mask unless
+    ``beam_freeze="cardioid"``).
+    """
+    r_hat, card, loud, state = calibration_masks_step(X1, X2, state, p, fs=fs, delay=delay)
+    return r_hat, card if p.beam_freeze == "cardioid" else card | loud, state
+
+
+def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
+    """Estimate ``r_hat`` for the frames of one block, with the causal masks of the two kinds of rule.
+
     Parameters
     ----------
     X1, X2 : complex (F, K)
@@ -420,11 +437,14 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
 
     Returns
     -------
-    r_hat : complex (F, K); frozen : bool (F, K); new state.
+    r_hat : complex (F, K); cardioid : bool (F, K), the cardioid rules' decisions; level : bool (F, K),
+    the level rule and its hangover (no look ahead: what beta and the DAS weight, which cannot wait,
+    use); new state.
     """
     F, K = X1.shape
     if F == 0:
-        return np.ones((0, K), dtype=complex), np.zeros((0, K), dtype=bool), state
+        none = np.zeros((0, K), dtype=bool)
+        return np.ones((0, K), dtype=complex), none, none, state
     band = _band(p, fs)
     card, loud, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
@@ -433,11 +453,9 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.freeze_level_db is not None else 0
     pend_x, pend_card, pend_loud = _pending(state, n_ahead)
     xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card]), np.concatenate([pend_loud, loud])
-    learn_frozen, now_frozen, changes["last_loud"] = _learning_mask(
+    learn_frozen, level_now, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
-    if not p.level_freezes_beam:  # beta and the DAS weight keep the cardioid rules' mask only
-        now_frozen = card
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
     # 1 - lam, then 1 - lam; 0 where frozen
     active = ~learn_frozen
@@ -469,7 +487,7 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     r_hat = held[np.cumsum(is_update)]
     values = dict(vars(state))
     values.update(avg=a, r_last=held[-1].copy(), raw_last=raw_last, n_frames=state.n_frames + F, counts=counts[-1].copy(), **changes)
-    return r_hat, now_frozen, CalibrationState(**values)
+    return r_hat, card, level_now, CalibrationState(**values)
 
 
 def calibration_trace(record: dict) -> dict:

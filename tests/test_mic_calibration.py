@@ -256,14 +256,14 @@ def test_blocks_match_one_pass_with_the_level_rule():
 
 
 def test_level_rule_can_leave_the_beam_mask_alone():
-    """``level_freezes_beam=False``: the calibration still learns only where the level rule lets it (its
+    """``beam_freeze="cardioid"``: the calibration still learns only where the level rule lets it (its
     estimate differs from the cardioid rules' alone), but the mask it hands to beta and the DAS weight is
     the cardioid rules' only.  Oracle: the cardioid decisions do not depend on the level rule, so that mask
-    equals the default's exactly; the control (``True``) adds the level rule's frames."""
+    equals the default's exactly; the control (``"both"``) adds the level rule's frames."""
     s, n = _talker_bursts(33)
     x = (s + n)[:, : 3 * FS]
     plain = make("mic-calibration").process(x, FS).trace
-    split = make("mic-calibration", **TALKER_BLIND, level_freezes_beam=False).process(x, FS).trace
+    split = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace
     joint = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace
     np.testing.assert_array_equal(split["frozen"], plain["frozen"])
     assert joint["frozen"].sum() > plain["frozen"].sum() + 100

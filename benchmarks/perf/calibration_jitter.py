@@ -163,7 +163,7 @@ def main(argv=None) -> int:
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
-                    help="eb-robust parameters on top of the mode, e.g. level_freezes_beam=false")
+                    help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
     ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
     ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
     ap.add_argument("--mismatch-seeds", type=int, default=1)
