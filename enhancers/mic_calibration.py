@@ -156,6 +156,7 @@ class CalibrationState:
     q_bin: GateState         # the per-bin freeze rule's state
     q_band: GateState        # the band freeze rule's state
     q_level: GateState       # the level rule's state (band power re its running minimum)
+    q_front: GateState       # the level rule's direction condition (band cardioid ratio re 0 dB)
     last_loud: np.ndarray    # (K,) frame (re the first pending one) the level rule last fired per bin
     pend_x: np.ndarray       # complex (D, 3, K): the last D frames' products, not yet averaged
     pend_card: np.ndarray    # bool (D, K): their cardioid-rule decisions
@@ -184,6 +185,7 @@ class CalibrationParams(StftParams):
     level_band_hz: tuple[float, float] = (200.0, 7000.0)
     level_floor_s: float = 3.0
     level_floor_lam: float | None = None
+    level_frontal_db: float | None = None
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
     ramp_frames: float = 0.0
@@ -210,6 +212,8 @@ class CalibrationParams(StftParams):
             check_range("freeze_level_db", self.freeze_level_db, 0.0, 60.0)
         _check_band("level_band_hz", self.level_band_hz)
         check_range("level_floor_s", self.level_floor_s, 0.0, 60.0, lo_open=True)
+        if self.level_frontal_db is not None:
+            check_range("level_frontal_db", self.level_frontal_db, -60.0, 60.0)
         if self.level_floor_lam is not None:
             check_range("level_floor_lam", self.level_floor_lam, 0.0, 1.0, hi_open=True)
         check_range("level_hang_s", self.level_hang_s, 0.0, 10.0)
@@ -231,7 +235,7 @@ def calibration_init(n_bins: int) -> CalibrationState:
     return CalibrationState(avg=np.zeros((3, n_bins), dtype=complex), r_last=np.ones(n_bins, dtype=complex),
                             raw_last=np.ones(n_bins, dtype=complex),
                             n_frames=0, counts=np.zeros(n_bins), q_bin=gate_init(n_bins),
-                            q_band=gate_init(n_bins), q_level=GateState(pf=np.zeros(n_bins), pb=ones),
+                            q_band=gate_init(n_bins), q_level=GateState(pf=np.zeros(n_bins), pb=ones), q_front=gate_init(n_bins),
                             last_loud=np.full(n_bins, -(10**9)), pend_x=np.zeros((0, 3, n_bins), dtype=complex),
                             pend_card=np.zeros((0, n_bins), dtype=bool), pend_loud=np.zeros((0, n_bins), dtype=bool))
 
@@ -297,7 +301,7 @@ def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_ha
     return skip, after[n_ahead:], new_last
 
 
-def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float):
+def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float, frontal=None):
     """The level rule: ``(fires (F, K), state changes)``, True where more than the noise is present.
 
     The power of both mics over ``level_band_hz`` (leaving out the bin and its neighbours, as the
@@ -325,6 +329,8 @@ def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
                                    sf=None if floor_lam is None else band[m].copy(), sb=gate.pb)
     loud, q = power_ratio_gate(band[m:], np.ones_like(band[m:]), state=gate, gate_db=float(p.freeze_level_db),
                                **rule)
+    if frontal is not None:  # loud *and* from the front: the talker, not a swing of rear/side/diffuse noise
+        loud &= frontal[m:]
     return np.concatenate([np.ones((m, K), dtype=bool), loud]), {"q_level": q}
 
 
@@ -347,8 +353,13 @@ def _freeze(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, d
                                   gate_db=float(p.freeze_db), **rule)
     whole, w = power_ratio_gate(_leave_out_sum(eF, band), _leave_out_sum(eB, band), state=state.q_band,
                                 gate_db=float(p.freeze_band_db), **rule)
-    loud, changes = _level_rule(X1, X2, state, p, fs=fs, lam=float(p.gate_lam_cal))
-    return per_bin | whole, loud, {"q_bin": q, "q_band": w, **changes}
+    frontal, changes = None, {}
+    if p.level_frontal_db is not None and p.freeze_level_db is not None:
+        frontal, changes["q_front"] = power_ratio_gate(
+            _leave_out_sum(eF, band), _leave_out_sum(eB, band), state=state.q_front,
+            gate_db=float(p.level_frontal_db), lam=float(p.gate_lam_cal), n_window=0)
+    loud, level_changes = _level_rule(X1, X2, state, p, fs=fs, lam=float(p.gate_lam_cal), frontal=frontal)
+    return per_bin | whole, loud, {"q_bin": q, "q_band": w, **changes, **level_changes}
 
 
 def _propagation_slope(s21: np.ndarray, band: slice, max_slope: float) -> np.ndarray:

@@ -268,3 +268,25 @@ def test_level_rule_can_leave_the_beam_mask_alone():
     np.testing.assert_array_equal(split["frozen"], plain["frozen"])
     assert joint["frozen"].sum() > plain["frozen"].sum() + 100
     assert np.max(np.abs(split["rear_gain_db"] - plain["rear_gain_db"])) > 1e-3
+
+
+def test_level_rule_ignores_a_loud_rear_source_with_the_frontal_condition():
+    """``level_frontal_db``: the level rule fires only where the band's forward/backward cardioid ratio is
+    also above 0 dB + that margin -- a loud burst from behind (a plane wave at 180 deg, 20 dB above white
+    diffuse noise) is noise to learn from, not the talker.  Oracle: with the condition the level rule's
+    mask adds nothing to the cardioid rules' after its start-up hold (the filter bank's first frame plus
+    ``level_hang_s``), so the mask equals the default's exactly from there on; control: without it the
+    burst trips the level rule (hundreds more frozen cells)."""
+    rng = np.random.default_rng(35)
+    n = 3 * FS
+    x = apply_mismatch(diffuse_noise(n, SPACING_M, fs=FS, rng=rng), fs=FS, **MISMATCH)
+    burst = np.zeros(n)
+    burst[FS:FS + FS // 2] = 10.0 * np.sqrt(np.mean(x[0] ** 2)) * rng.standard_normal(FS // 2)
+    x += apply_mismatch(plane_wave_pair(burst, az_deg=180), fs=FS, **MISMATCH)
+    plain = make("mic-calibration").process(x, FS).trace["frozen"]
+    rule = dict(TALKER_BLIND, beam_freeze="both")
+    front = make("mic-calibration", **rule, level_frontal_db=1.0).process(x, FS).trace["frozen"]
+    level = make("mic-calibration", **rule).process(x, FS).trace["frozen"]
+    start = 2 + int(np.ceil(0.1 * FS / 128))
+    np.testing.assert_array_equal(front[start:], plain[start:])
+    assert level.sum() > plain.sum() + 500
