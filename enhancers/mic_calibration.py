@@ -109,6 +109,25 @@ less mean SNR-I (factory -6.4 dB) and 4-5 dB more loss from a 1 dB / 5 deg misma
 babble/factory whose own level swings trip the level rule, the estimates learn from ~2 % of
 the cells.  Hence opt-in.
 
+Variants tried to win that back (issue 16, second round; all opt-in, none meets every target):
+
+* ``beam_freeze``: which masks freeze ``eb-robust``'s beta and DAS weight -- ``"both"`` (the
+  above: cardioid and level rules for both), ``"level"`` (beta on the level rule only, the DAS
+  weight on both), ``"cardioid"`` (beta on its own gate only, the DAS weight on the cardioid rules:
+  the level rule then steers the calibration alone);
+* ``level_floor_lam``: the level rule's floor is the running minimum of a more slowly smoothed
+  level (per frame; the minimum of a fluctuating level sits below its mean);
+* ``level_frontal_db``: the level rule fires only where the band's forward/backward cardioid ratio
+  is also that many dB above 0 dB (a loud rear, side or diffuse swing is noise to learn from).
+
+Measured (``calibration_jitter --blind --set ...``, seed 0, 5 / 15 / 25 dB, built-in data): the
+level rule is what makes the two Hagerman runs agree, and the start-up ramp is what keeps wind and
+factory jitter low (without it -11 dB); every variant that learns enough in babble to keep the
+1 dB / 5 deg mismatch loss at 135 deg near the default's lets the talker back in (worst
+``eb-robust-ss`` jitter at >= 15 dB -11..-21 dB), and every variant whose level rule freezes beta or
+the calibration in ``phone``'s 6-s factory (a single plane wave whose own level swings trip it)
+loses 2.5-6 dB of SNR-I there.  The table is in the closing note of issue 16.
+
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
 without the level rule's look ahead: the mask beta and the DAS weight use).
@@ -528,6 +547,7 @@ class MicCalibration(StftEnhancer):
         floor's ratio (None: the same), and the floor's window (1 s).
     freeze_level_db, level_band_hz, level_floor_s, level_hang_s, level_ahead_s, ramp_frames : the
         talker-blind mode (module docstring; None / 200-7000 Hz / 3 s / 0.1 s / 0.1 s / 0: off).
+    level_floor_lam, level_frontal_db, beam_freeze : its variants (None / None / ``"both"``).
 
     Examples
     --------

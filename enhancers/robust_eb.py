@@ -6,7 +6,8 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
 1. :func:`enhancers.mic_calibration.calibration_step` estimates the rear mic's complex
    response ``r_hat`` per bin (slow, frozen while a frontal talker dominates) and the rear
    spectrum is divided by it; in its talker-blind mode (``freeze_level_db`` set, issue 16:
-   learning only where the talker is absent) beta and the DAS weight freeze on its mask too;
+   learning only where the talker is absent) beta and the DAS weight freeze on its masks too
+   (which ones: ``beam_freeze``);
 2. :func:`enhancers.subband_eb.subband_beta_step` adapts one real beta per bin on the
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain

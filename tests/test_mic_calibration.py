@@ -290,3 +290,22 @@ def test_level_rule_ignores_a_loud_rear_source_with_the_frontal_condition():
     start = 2 + int(np.ceil(0.1 * FS / 128))
     np.testing.assert_array_equal(front[start:], plain[start:])
     assert level.sum() > plain.sum() + 500
+
+
+def test_beam_freeze_level_holds_beta_where_the_level_rule_fires():
+    """``eb-robust`` with ``beam_freeze="level"``: in every cell the level rule (with its hangover) freezes,
+    beta does not move (``beta[t] == beta[t-1]`` exactly: the update is skipped).  The level rule's cells are
+    read from ``mic-calibration``'s masks: frozen with ``"both"`` (cardioid or level) but not with
+    ``"cardioid"``.  Control: with ``"cardioid"`` (beta on its own gate only) beta moves in some of them."""
+    s, n = _talker_bursts(36)
+    x = (s + n)[:, : 3 * FS]
+    both = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace["frozen"]
+    card = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace["frozen"]
+    level_only = (both > 0) & (card == 0)
+    assert level_only[1:].sum() > 100  # measured 218
+    moves = {}
+    for mode in ("level", "cardioid"):
+        beta = make("eb-robust", **TALKER_BLIND, beam_freeze=mode).process(x, FS).trace["beta"]
+        moves[mode] = np.sum((beta[1:] != beta[:-1]) & level_only[1:])
+    assert moves["level"] == 0
+    assert moves["cardioid"] > 50  # measured 137 of the 218 level-only cells

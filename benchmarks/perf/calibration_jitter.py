@@ -1,7 +1,10 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+        [--noises babble ...] [--blind] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+
+``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``beam_freeze='"level"'
+level_frontal_db=1``; JSON lists become tuples), for both systems and the mismatch rows.
 
 ``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
 and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
