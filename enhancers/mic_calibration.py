@@ -208,6 +208,7 @@ class CalibrationParams(StftParams):
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
     ramp_frames: float = 0.0
+    ramp_over_band: bool = False
     beam_freeze: str = "both"
 
     def _check_calibration(self):
@@ -238,6 +239,8 @@ class CalibrationParams(StftParams):
         check_range("level_hang_s", self.level_hang_s, 0.0, 10.0)
         check_range("level_ahead_s", self.level_ahead_s, 0.0, 10.0)
         check_range("ramp_frames", self.ramp_frames, 0.0, 1e6)
+        if not isinstance(self.ramp_over_band, bool):
+            raise ParameterError("ramp_over_band", self.ramp_over_band, "True or False")
         if self.beam_freeze not in BEAM_FREEZE:
             raise ParameterError("beam_freeze", self.beam_freeze, " or ".join(map(repr, BEAM_FREEZE)))
 
@@ -510,6 +513,10 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
     # shrunk towards the nominal 1 while a bin has few active frames n: r^min(1, n / ramp_frames)
     # (a few frames' estimate is noisy, and whatever of the talker leaks into them weighs 1/n)
     n_upd = counts[is_update]
+    if p.ramp_over_band:  # the estimate averages the bins k +- half: its noise goes with their total count
+        k = np.arange(K)
+        half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
+        n_upd = _smooth_bins(n_upd, half) * (np.minimum(k + half + 1, K) - np.maximum(k - half, 0))
     r_upd = np.exp(np.minimum(1.0, n_upd / float(p.ramp_frames)) * np.log(r_raw)) if p.ramp_frames > 0 else r_raw
     raw_last = r_raw[-1].copy() if r_raw.shape[0] else state.raw_last
     # every frame uses the estimate of the last update frame (the previous block's when none yet)
