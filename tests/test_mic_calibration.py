@@ -309,3 +309,21 @@ def test_beam_freeze_level_holds_beta_where_the_level_rule_fires():
         moves[mode] = np.sum((beta[1:] != beta[:-1]) & level_only[1:])
     assert moves["level"] == 0
     assert moves["cardioid"] > 50  # measured 137 of the 218 level-only cells
+
+
+def test_ramp_over_band_shrinks_less():
+    """``ramp_over_band``: the start-up ramp applies ``r^min(1, N / ramp_frames)`` with ``N`` the active frames
+    of all the bins the estimate averages instead of the bin's own ``n``.  Oracle: the raw estimate does not
+    depend on the ramp, and ``N >= n``, so the applied gain (dB) over the raw one is, per frame and bin, a
+    fraction in [0, 1] that is never smaller with the option (to 1e-9), and larger in some cells."""
+    s, n = _talker_bursts(37)
+    x = (s + n)[:, : 2 * FS]
+    blind = dict(TALKER_BLIND, ramp_frames=0.0)
+    raw = make("mic-calibration", **blind).process(x, FS).trace["rear_gain_db"]
+    own, band = (make("mic-calibration", **dict(blind, ramp_frames=40.0, ramp_over_band=flag)).process(x, FS)
+                 .trace["rear_gain_db"] for flag in (False, True))
+    ok = np.abs(raw) > 1e-3
+    f_own, f_band = own[ok] / raw[ok], band[ok] / raw[ok]
+    assert np.all((f_own > -1e-9) & (f_band < 1 + 1e-9))
+    assert np.all(f_band >= f_own - 1e-9)
+    assert np.sum(f_band > f_own + 0.1) > 100
