@@ -6,7 +6,8 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
 1. :func:`enhancers.mic_calibration.calibration_step` estimates the rear mic's complex
    response ``r_hat`` per bin (slow, frozen while a frontal talker dominates) and the rear
    spectrum is divided by it; in its talker-blind mode (``freeze_level_db`` set, issue 16:
-   learning only where the talker is absent) beta and the DAS weight freeze on its mask too;
+   learning only where the talker is absent) beta and the DAS weight freeze on its masks too
+   (which ones: ``beam_freeze``);
 2. :func:`enhancers.subband_eb.subband_beta_step` adapts one real beta per bin on the
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain
@@ -61,7 +62,7 @@ from enhancers.chain import Chain
 from enhancers.mic_calibration import (
     CalibrationParams,
     calibration_init,
-    calibration_step,
+    calibration_masks_step,
     calibration_trace,
 )
 from enhancers.subband_eb import SubbandBase, SubbandEbParams, subband_init
@@ -118,15 +119,20 @@ class RobustElkoBeamformer(SubbandBase):
         cal, sub = algo
         X1, X2 = X[0], X[1]
         record = {}
-        frozen = None
+        mix_frozen = beta_frozen = None
         if self.params.calibrate:
-            r_hat, frozen, cal = calibration_step(X1, X2, cal, self.params, fs=fs, delay=self.delay_samples(fs))
+            r_hat, card, level, cal = calibration_masks_step(X1, X2, cal, self.params, fs=fs,
+                                                             delay=self.delay_samples(fs))
             X2 = X2 / r_hat
-            record.update(r_hat=r_hat, frozen=frozen)
-        # the DAS mix learns only where the calibration does too (no talker); with the calibration's
-        # level rule on (the talker-blind mode of issue 16) so does beta
-        talker_blind = self.params.calibrate and self.params.freeze_level_db is not None
-        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=frozen, beta_frozen=frozen if talker_blind else None)
+            # the DAS mix learns only where the calibration does too (no talker); with the calibration's
+            # level rule on (the talker-blind mode of issue 16) beta freezes on the masks beam_freeze names
+            mode = self.params.beam_freeze
+            mix_frozen = card if mode == "cardioid" else card | level
+            beta_frozen = {"both": mix_frozen, "level": level, "cardioid": None}[mode]
+            if self.params.freeze_level_db is None:
+                beta_frozen = None
+            record.update(r_hat=r_hat, frozen=mix_frozen)
+        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, beta_frozen=beta_frozen)
         record.update(beam)
         return Y[None], (cal, sub), record
 

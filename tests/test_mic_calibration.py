@@ -253,3 +253,96 @@ def test_blocks_match_one_pass_with_the_level_rule():
         masks.append(fr)
     np.testing.assert_array_equal(np.concatenate(masks), fr_whole)
     np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-12)
+
+
+def test_level_rule_can_leave_the_beam_mask_alone():
+    """``beam_freeze="cardioid"``: the calibration still learns only where the level rule lets it (its
+    estimate differs from the cardioid rules' alone), but the mask it hands to beta and the DAS weight is
+    the cardioid rules' only.  Oracle: the cardioid decisions do not depend on the level rule, so that mask
+    equals the default's exactly; the control (``"both"``) adds the level rule's frames."""
+    s, n = _talker_bursts(33)
+    x = (s + n)[:, : 3 * FS]
+    plain = make("mic-calibration").process(x, FS).trace
+    split = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace
+    joint = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace
+    np.testing.assert_array_equal(split["frozen"], plain["frozen"])
+    assert joint["frozen"].sum() > plain["frozen"].sum() + 100
+    assert np.max(np.abs(split["rear_gain_db"] - plain["rear_gain_db"])) > 1e-3
+
+
+def test_level_rule_ignores_a_loud_rear_source_with_the_frontal_condition():
+    """``level_frontal_db``: the level rule fires only where the band's forward/backward cardioid ratio is
+    also above 0 dB + that margin -- a loud burst from behind (a plane wave at 180 deg, 20 dB above white
+    diffuse noise) is noise to learn from, not the talker.  Oracle: with the condition the level rule's
+    mask adds nothing to the cardioid rules' after its start-up hold (the filter bank's first frame plus
+    ``level_hang_s``), so the mask equals the default's exactly from there on; control: without it the
+    burst trips the level rule (hundreds more frozen cells)."""
+    rng = np.random.default_rng(35)
+    n = 3 * FS
+    x = apply_mismatch(diffuse_noise(n, SPACING_M, fs=FS, rng=rng), fs=FS, **MISMATCH)
+    burst = np.zeros(n)
+    burst[FS:FS + FS // 2] = 10.0 * np.sqrt(np.mean(x[0] ** 2)) * rng.standard_normal(FS // 2)
+    x += apply_mismatch(plane_wave_pair(burst, az_deg=180), fs=FS, **MISMATCH)
+    plain = make("mic-calibration").process(x, FS).trace["frozen"]
+    rule = dict(TALKER_BLIND, beam_freeze="both")
+    front = make("mic-calibration", **rule, level_frontal_db=1.0).process(x, FS).trace["frozen"]
+    level = make("mic-calibration", **rule).process(x, FS).trace["frozen"]
+    start = 2 + int(np.ceil(0.1 * FS / 128))
+    np.testing.assert_array_equal(front[start:], plain[start:])
+    assert level.sum() > plain.sum() + 500
+
+
+def test_beam_freeze_level_holds_beta_where_the_level_rule_fires():
+    """``eb-robust`` with ``beam_freeze="level"``: in every cell the level rule (with its hangover) freezes,
+    beta does not move (``beta[t] == beta[t-1]`` exactly: the update is skipped).  The level rule's cells are
+    read from ``mic-calibration``'s masks: frozen with ``"both"`` (cardioid or level) but not with
+    ``"cardioid"``.  Control: with ``"cardioid"`` (beta on its own gate only) beta moves in some of them."""
+    s, n = _talker_bursts(36)
+    x = (s + n)[:, : 3 * FS]
+    both = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace["frozen"]
+    card = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace["frozen"]
+    level_only = (both > 0) & (card == 0)
+    assert level_only[1:].sum() > 100  # measured 218
+    moves = {}
+    for mode in ("level", "cardioid"):
+        beta = make("eb-robust", **TALKER_BLIND, beam_freeze=mode).process(x, FS).trace["beta"]
+        moves[mode] = np.sum((beta[1:] != beta[:-1]) & level_only[1:])
+    assert moves["level"] == 0
+    assert moves["cardioid"] > 50  # measured 137 of the 218 level-only cells
+
+
+def test_ramp_over_band_shrinks_less():
+    """``ramp_over_band``: the start-up ramp applies ``r^min(1, N / ramp_frames)`` with ``N`` the active frames
+    of all the bins the estimate averages instead of the bin's own ``n``.  Oracle: the raw estimate does not
+    depend on the ramp, and ``N >= n``, so the applied gain (dB) over the raw one is, per frame and bin, a
+    fraction in [0, 1] that is never smaller with the option (to 1e-9), and larger in some cells."""
+    s, n = _talker_bursts(37)
+    x = (s + n)[:, : 2 * FS]
+    blind = dict(TALKER_BLIND, ramp_frames=0.0)
+    raw = make("mic-calibration", **blind).process(x, FS).trace["rear_gain_db"]
+    own, band = (make("mic-calibration", **dict(blind, ramp_frames=40.0, ramp_over_band=flag)).process(x, FS)
+                 .trace["rear_gain_db"] for flag in (False, True))
+    ok = np.abs(raw) > 1e-3
+    f_own, f_band = own[ok] / raw[ok], band[ok] / raw[ok]
+    assert np.all((f_own > -1e-9) & (f_band < 1 + 1e-9))
+    assert np.all(f_band >= f_own - 1e-9)
+    assert np.sum(f_band > f_own + 0.1) > 100
+
+
+def test_slower_level_floor_fires_less_in_stationary_noise():
+    """``level_floor_lam``: the level rule's floor is the running minimum of a more slowly smoothed level.
+    Oracle (minimum statistics): the minimum of a fluctuating level sits closer to its mean the more it is
+    smoothed, so the rule fires in fewer cells (white diffuse noise whose level swings +-6 dB at 4 Hz, like
+    babble's, 3 s: the level rule's own cells are those frozen with ``beam_freeze="both"`` but not with
+    ``"cardioid"``)."""
+    rng = np.random.default_rng(38)
+    swing = 10 ** (0.3 * np.sin(2 * np.pi * 4 * np.arange(3 * FS) / FS))
+    x = apply_mismatch(diffuse_noise(3 * FS, SPACING_M, fs=FS, rng=rng) * swing, fs=FS, **MISMATCH)
+
+    def level_cells(**kw):
+        both = make("mic-calibration", **TALKER_BLIND, **kw).process(x, FS).trace["frozen"]
+        card = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid", **kw).process(x, FS).trace["frozen"]
+        return int(np.sum((both > 0) & (card == 0)))
+
+    fast, slow = level_cells(), level_cells(level_floor_lam=0.98)
+    assert slow < 0.8 * fast and fast > 2000  # measured 6232 vs 8709 cells

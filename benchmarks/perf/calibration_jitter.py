@@ -1,7 +1,10 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+        [--noises babble ...] [--blind] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+
+``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``beam_freeze='"level"'
+level_frontal_db=1``; JSON lists become tuples), for both systems and the mismatch rows.
 
 ``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
 and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
@@ -45,14 +48,23 @@ from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0
-TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0}
+# the best opt-in setting measured (issue 16, second round: see enhancers/mic_calibration.py); the first
+# round's was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
+TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": True, "level_frontal_db": -1.0,
+                "beam_freeze": "level"}
 
 
-def _make(name: str, blind: bool):
-    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults."""
-    if not blind:
+def _params(blind, overrides=None) -> dict:
+    """``eb-robust``'s parameters: :data:`TALKER_BLIND` (``blind``) or none, then ``overrides``."""
+    return {**(TALKER_BLIND if blind else {}), **(overrides or {})}
+
+
+def _make(name: str, blind, overrides=None):
+    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults, plus ``overrides``."""
+    params = _params(blind, overrides)
+    if not params:
         return make(name)
-    return make(name, **TALKER_BLIND) if name == "eb-robust" else make(name, eb=dict(TALKER_BLIND))
+    return make(name, **params) if name == "eb-robust" else make(name, eb=params)
 
 
 def _snr(s_out, n_out, ref, latency) -> float:
@@ -61,7 +73,7 @@ def _snr(s_out, n_out, ref, latency) -> float:
     return M.snr_db(s_al, n_al)
 
 
-def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> list[dict]:
+def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, overrides=None) -> list[dict]:
     """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring)."""
     images = render_group(cond, data_dir)[0]
     rendered = images.mix(cond.snr_db)
@@ -69,7 +81,7 @@ def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> 
     ref = rendered.reference[0]
     rows = []
     for name in names:
-        e = with_geometry(_make(name, blind), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+        e = with_geometry(_make(name, blind, overrides), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
         lat = int(e.tags.latency_samples)
         r1, r2 = e.process(s + n, cond.fs), e.process(s - n, cond.fs)
         w1s, w2s, w1n = r1.replay(s)[0], r2.replay(s)[0], r1.replay(n)[0]
@@ -85,12 +97,13 @@ def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False) -> 
     return rows
 
 
-def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, progress=False) -> list[dict]:
+def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, overrides=None,
+               progress=False) -> list[dict]:
     rows = []
     for cond in load_sweep("phone").conditions():
         if cond.seed >= seeds or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
             continue
-        rows += measure_condition(cond, data_dir, blind=blind)
+        rows += measure_condition(cond, data_dir, blind=blind, overrides=overrides)
         if progress:
             print(".", end="", flush=True)
     if progress:
@@ -135,11 +148,11 @@ def print_tables(rows, baseline: dict | None) -> None:
         print(f"| {key} | {v:.2f} | " + ("" if b is None else f"{b:.2f} | {v - b:+.2f}") + " |")
 
 
-def print_mismatch(seeds: int, blind: bool = False) -> None:
+def print_mismatch(seeds: int, blind: bool = False, overrides=None) -> None:
     print("\neb-robust mismatch loss (dB): ideal minus 1 dB / 5 deg rear mic, 20 s scored after 8 s, "
           f"mean of {seeds} seed(s); target <= 2 dB at 135, 240 deg and diffuse\n")
     print("| noise | ideal SNR-I | mismatched SNR-I | loss |\n| --- | ---: | ---: | ---: |")
-    params = {"eb-robust": TALKER_BLIND} if blind else None
+    params = {"eb-robust": _params(blind, overrides)} if blind or overrides else None
     per_seed = [snr_improvements(("eb-robust",), seconds=20.0, settle_s=8.0, seed=3 + 10 * k, params=params)
                 for k in range(seeds)]
     for i in range(0, len(per_seed[0]), 2):
@@ -155,18 +168,23 @@ def main(argv=None) -> int:
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
+                    help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
     ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
     ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
     ap.add_argument("--mismatch-seeds", type=int, default=1)
     ap.add_argument("--skip-mismatch", action="store_true")
     args = ap.parse_args(argv)
+    overrides = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.set)}
+    for k, v in overrides.items():  # JSON has no tuples; the band parameters are pairs
+        overrides[k] = tuple(v) if isinstance(v, list) else v
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
-                      progress=True)
+                      overrides=overrides, progress=True)
     baseline = None
     if args.baseline:
         with open(args.baseline) as f:
             baseline = json.load(f)
-    mode = "talker-blind " + json.dumps(TALKER_BLIND) if args.blind else "defaults"
+    mode = ("talker-blind " if args.blind else "defaults ") + json.dumps(_params(args.blind, overrides))
     print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(SYSTEMS)} conditions, "
           f"calibration: {mode}")
     print_tables(rows, baseline)
@@ -174,7 +192,7 @@ def main(argv=None) -> int:
         with open(args.save_baseline, "w") as f:
             json.dump(per_noise_means(rows), f, indent=1)
     if not args.skip_mismatch:
-        print_mismatch(args.mismatch_seeds, args.blind)
+        print_mismatch(args.mismatch_seeds, args.blind, overrides)
     return 0
 
 
