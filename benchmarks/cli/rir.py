@@ -38,6 +38,14 @@ def add_parser(subparsers):
         help="image-source room impulse responses (optionally compared with pyroomacoustics)",
         description="Compute shoebox-room impulse responses by the image-source method.",
     )
+    _add_room_args(p)
+    _add_placement_args(p)
+    _add_render_args(p)
+    p.set_defaults(func=run)
+
+
+def _add_room_args(p) -> None:
+    """The room: dimensions, walls (absorption or RT60 targets), scattering and air."""
     p.add_argument("--dims", nargs=3, type=float, required=True, metavar=("LX", "LY", "LZ"),
                    help="room dimensions in metres")
     wall = p.add_mutually_exclusive_group(required=True)
@@ -60,6 +68,10 @@ def add_parser(subparsers):
                    help="air temperature in degrees Celsius for --air (default 20)")
     p.add_argument("--humidity", type=float, default=50.0, metavar="PCT",
                    help="relative humidity in %% for --air (default 50)")
+
+
+def _add_placement_args(p) -> None:
+    """Where the source and the mics are."""
     p.add_argument("--source", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"),
                    help="source position in metres")
     mics = p.add_mutually_exclusive_group(required=True)
@@ -71,6 +83,10 @@ def add_parser(subparsers):
                    help="pair spacing in metres (default 0.0214)")
     p.add_argument("--pair-azimuth", type=float, default=0.0, metavar="DEG",
                    help="pair axis direction in the horizontal plane, degrees from +x (default 0)")
+
+
+def _add_render_args(p) -> None:
+    """How the RIR is rendered and written, and the source's directivity."""
     p.add_argument("--fs", type=int, default=16000, help="sampling rate in Hz (default 16000)")
     p.add_argument("--max-order", type=int, default=None, metavar="N",
                    help="L1 image order bound (default: all images within the RIR length; "
@@ -99,7 +115,6 @@ def add_parser(subparsers):
     p.add_argument("--format", choices=FORMATS, default="npy", help="output format (default npy)")
     p.add_argument("--compare", choices=("pyroomacoustics",), default=None,
                    help="also build the room in pyroomacoustics and report the agreement")
-    p.set_defaults(func=run)
 
 
 def pyroomacoustics_max_order(dims_m, rt60_s: float, c: float = 343.0) -> int:
