@@ -590,32 +590,7 @@ def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneIm
     speech_image, reference = _render_point(scene, s, scene.speech, "speech", rirs)
     noise_image = np.zeros((2, n))
     for k, (src, sig) in enumerate(zip(scene.noises, noise_signals)):
-        rng = np.random.default_rng([scene.seed, _NOISE_STREAM, k])
-        arr = _noise_input(sig, k, n, src.field)
-        if src.field == "point":
-            mono = rng.standard_normal(n) if arr is None else arr[0, :n]
-            img, _ = _render_point(scene, mono, src, f"noise{k}", rirs)
-        elif src.field == "diffuse":
-            img = diffuse_noise(
-                n, scene.pair, fs=scene.fs, rng=rng, c=scene.speed_of_sound_mps, source=arr
-            )
-        elif src.field == "wind":
-            img = wind_noise(
-                n,
-                scene.pair,
-                fs=scene.fs,
-                wind_speed_mps=src.wind_speed_mps,
-                flow_azimuth_deg=src.flow_azimuth_deg,
-                rng=rng,
-                source=arr,
-            )
-        elif src.field == "spread":
-            img = _render_spread(scene, src, k, n, arr, rng, rirs)
-        elif src.field == "hall":
-            machines = independent_channels(n, n_channels=src.n_sources, rng=rng, source=None if arr is None else arr[0])
-            img = hall_noise(machines, scene.pair, fs=scene.fs, seed=scene.seed, c=scene.speed_of_sound_mps)
-        else:
-            img = incoherent_noise(n, rng=rng, source=arr)
+        img = _render_noise(scene, src, k, _noise_input(sig, k, n, src.field), n, rirs)
         noise_image += 10.0 ** (src.gain_db / 20.0) * img
     acoustic_speech = None
     if scene.sensors is not None and not scene.sensors.linear_ideal:
@@ -633,6 +608,34 @@ def render_images(scene: Scene, speech, noise_signals: Sequence = ()) -> SceneIm
         scene=scene,
         acoustic_speech=acoustic_speech,
     )
+
+
+def _render_noise(scene: Scene, src: NoiseSource, k: int, arr, n: int, rirs: dict) -> np.ndarray:
+    """The unit-gain ``(2, n)`` image of noise source ``k`` (its field decides how), seeded per source."""
+    rng = np.random.default_rng([scene.seed, _NOISE_STREAM, k])
+    if src.field == "point":
+        mono = rng.standard_normal(n) if arr is None else arr[0, :n]
+        return _render_point(scene, mono, src, f"noise{k}", rirs)[0]
+    if src.field == "diffuse":
+        return diffuse_noise(
+            n, scene.pair, fs=scene.fs, rng=rng, c=scene.speed_of_sound_mps, source=arr
+        )
+    if src.field == "wind":
+        return wind_noise(
+            n,
+            scene.pair,
+            fs=scene.fs,
+            wind_speed_mps=src.wind_speed_mps,
+            flow_azimuth_deg=src.flow_azimuth_deg,
+            rng=rng,
+            source=arr,
+        )
+    if src.field == "spread":
+        return _render_spread(scene, src, k, n, arr, rng, rirs)
+    if src.field == "hall":
+        machines = independent_channels(n, n_channels=src.n_sources, rng=rng, source=None if arr is None else arr[0])
+        return hall_noise(machines, scene.pair, fs=scene.fs, seed=scene.seed, c=scene.speed_of_sound_mps)
+    return incoherent_noise(n, rng=rng, source=arr)
 
 
 def spread_positions(scene: Scene, src: NoiseSource, k: int) -> np.ndarray:
