@@ -1,0 +1,155 @@
+"""Compiled frame step of ``mic-calibration``, ``eb-subband`` and ``eb-robust`` (issue 20: streaming speed).
+
+Streaming in 10 ms blocks hands the enhancers one or two STFT frames per call; the numpy step of
+:mod:`enhancers.mic_calibration` and :mod:`enhancers.subband_eb` then spends ~2 ms per block in ~150
+small numpy calls.  This module packs the parameters, per-bin constants and state into arrays once per
+stream and runs the frames through one numba kernel (:func:`enhancers._kernels_robust.run_frames`).
+Batch processing runs the same kernel on all frames, so batch equals streaming exactly.
+
+The numpy implementations stay the reference (``tests/test_fast_frames.py`` compares the two to
+rounding).  The kernel covers the default algorithm: the calibration without the talker-blind
+mode (``freeze_level_db=None``, ``ramp_frames=0``), and every sub-band beamformer option; other
+parameter sets, or ``COMPILED = False``, run the reference.
+
+The state (:class:`FastState`) is updated in place (``Enhancer.process_block``'s contract allows it):
+always pass on the state a call returns, never reuse an old one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from enhancers.eq import look_eq_gain
+from enhancers.stft_stage import bin_omega
+
+__all__ = ["COMPILED", "FastState", "calibration_supported", "new_state"]
+
+#: False: new streams (and batch runs) use the numpy reference instead of the compiled kernel.
+COMPILED = True
+
+
+def calibration_supported(p) -> bool:
+    """Whether the kernel covers the calibration fields of ``p`` (not the talker-blind mode or its ramp)."""
+    return p.freeze_level_db is None and float(p.ramp_frames) == 0.0
+
+
+class FastState:
+    """One stream's arrays (see :mod:`enhancers._kernels_robust` for the rows), updated in place."""
+
+    __slots__ = ("args", "calibrate", "beam", "das_mix")
+
+    def __init__(self, args: tuple, *, calibrate: bool, beam: bool, das_mix: bool):
+        self.args, self.calibrate, self.beam, self.das_mix = args, calibrate, beam, das_mix
+
+    def frames(self, X: np.ndarray):
+        """Frames ``X (2, F, K)`` -> ``(Y (2, F, K) or (F, K), record)``: the calibrated pair (calibration
+        only) or the beamformer output, and the record of the reference step (``r_hat``, ``frozen``,
+        ``beta``, ``eq``, ``alpha``, as applicable)."""
+        from enhancers._kernels_robust import run_frames  # lazy: numba's import costs ~0.3 s
+
+        _, F, K = X.shape
+        X = np.ascontiguousarray(X, dtype=complex)
+        out = np.empty((4, F, K), dtype=complex)  # (front, output, r_hat, G)
+        reals = np.empty((2, F, K))  # (beta, alpha)
+        frozen = np.zeros((F, K), dtype=bool)
+        run_frames(X[0], X[1], *self.args, out[1:], reals, frozen)
+        record = {}
+        if self.calibrate:
+            record.update(r_hat=out[2], frozen=frozen)
+        if not self.beam:
+            out[0] = X[0]
+            return out[:2], record
+        record.update(beta=reals[0], eq=out[3])
+        if self.das_mix and F:
+            record["alpha"] = reals[1]
+        return out[1], record
+
+
+def _calibration_constants(p, fs: int, delay: float, band: slice, K: int):
+    """``(par, ipar)`` entries and the band-smoothing bounds ``(2, K)`` of the calibration."""
+    n_window = int(math.ceil(float(p.floor_s) * fs / int(p.hop))) if p.floor_s > 0 else 0
+    k = np.arange(K)
+    half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
+    bounds = np.stack([np.maximum(k - half, 0), np.minimum(k + half + 1, K)]).astype(np.int64)
+    par = {"P_GL": float(p.gate_lam_cal), "P_FLOORLAM": 0.0 if p.floor_lam_cal is None else float(p.floor_lam_cal),
+           "P_THR_BIN": 10.0 ** (float(p.freeze_db) / 10.0), "P_THR_BAND": 10.0 ** (float(p.freeze_band_db) / 10.0),
+           "P_CMIN": 1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s))),
+           "P_MAXSLOPE": 2 * math.pi * delay / int(p.frame_len), "P_MAXGAIN": float(p.max_gain_db),
+           "P_MAXPHASE": math.radians(float(p.max_phase_deg)), "P_MINCOH": float(p.min_coherence),
+           "P_LEAK": float(p.phase_leak)}
+    ipar = {"I_CAL": 1, "I_LO": band.start, "I_HI": band.stop, "I_NWC": n_window, "I_EVERY": int(p.estimate_every),
+            "I_FLOORLAM": int(p.floor_lam_cal is not None)}
+    return par, ipar, bounds, n_window
+
+
+def _beam_constants(p, fs: int, gate_window: int):
+    """``(par, ipar)`` entries of the sub-band beamformer (NLMS, gate, EQ, DAS mix)."""
+    gate = p.adapt_gate_db is not None
+    par = {"P_MU": float(p.mu), "P_LAM": float(p.lam), "P_EPS": float(p.eps),
+           "P_GLAM": float(p.lam if p.gate_lam is None else p.gate_lam),
+           "P_THR_GATE": 10.0 ** (float(p.adapt_gate_db) / 10.0) if gate else 0.0, "P_MIXLAM": float(p.mix_lam),
+           "P_ALPHA0": float(p.mix_alpha0),
+           "P_BOUND": 10.0 ** (float(p.eq_noise_gain_db) / 10.0) if p.eq_noise_gain_db is not None else 0.0}
+    ipar = {"I_BEAM": 1, "I_GATE": int(gate), "I_NWG": gate_window if gate else 0, "I_MIX": int(bool(p.das_mix)),
+            "I_MIXH": int(p.mix_smooth_bins), "I_EQ": int(bool(p.eq)), "I_NOISE": int(p.eq_noise_gain_db is not None),
+            "I_PHASE": int(bool(p.eq_phase)), "I_HP": int(float(p.eq_highpass_hz) > 0)}
+    return par, ipar
+
+
+def _bin_constants(p, fs: int, delay: float, K: int, band: slice | None) -> np.ndarray:
+    """Per-bin constants ``(N_CST, K)``: the rows named in :mod:`enhancers._kernels_robust`."""
+    from enhancers import _kernels_robust as kr
+
+    n = int(p.frame_len)
+    omega = bin_omega(n)
+    wt = omega * delay
+    ph = np.exp(-1j * omega * delay)  # the cardioids' and the DAS path's e^{-j w T}, as the reference forms it
+    cst = np.ones((kr.N_CST, K))
+    cst[kr.K_PHR], cst[kr.K_PHI] = ph.real, ph.imag
+    if getattr(p, "eq", False):
+        cst[kr.K_GSTATIC] = look_eq_gain(np.zeros(K), omega=omega, delay_samples=delay, freqs_hz=omega / (2 * np.pi) * fs,
+                                         max_gain_db=float(p.eq_max_gain_db))
+        if float(p.eq_highpass_hz) > 0:  # enhancers.eq's Butterworth magnitude (the reference multiplies by it last)
+            r = (np.asarray(omega / (2 * np.pi) * fs, dtype=float) / float(p.eq_highpass_hz)) ** 2
+            cst[kr.K_HPF] = r / np.sqrt(1.0 + r * r)
+    cst[kr.K_COSWT] = np.cos(wt)
+    cst[kr.K_LOOK2] = np.abs(2.0 * np.sin(wt))
+    cst[kr.K_INBAND] = 0.0
+    if band is not None:
+        cst[kr.K_INBAND, band] = 1.0
+    return cst
+
+
+def new_state(p, fs: int, n_bins: int, *, delay: float, band: slice | None = None,
+              gate_window: int = 0, beam: bool = True) -> FastState:
+    """A fresh stream's state for params ``p``: the calibration when ``band`` (its ``fit_band_hz`` bins)
+    is given, then the sub-band beamformer when ``beam`` (``gate_window``: its gate's floor in frames)."""
+    from enhancers import _kernels_robust as kr
+
+    K = n_bins
+    par_d, ipar_d, bounds, nwc = {}, {"I_CAL": 0, "I_BEAM": 0}, np.zeros((2, K), dtype=np.int64), 0
+    if band is not None:
+        cp, ci, bounds, nwc = _calibration_constants(p, fs, delay, band, K)
+        par_d.update(cp)
+        ipar_d.update(ci)
+    if beam:
+        bp, bi = _beam_constants(p, fs, gate_window)
+        par_d.update(bp)
+        ipar_d.update(bi)
+    par = np.zeros(kr.N_PAR)
+    for name, value in par_d.items():
+        par[getattr(kr, name)] = value
+    ipar = np.zeros(kr.N_IPAR, dtype=np.int64)
+    for name, value in ipar_d.items():
+        ipar[getattr(kr, name)] = value
+    rs = np.zeros((kr.N_RS, K))
+    beta0 = float(getattr(p, "beta0", 0.0))
+    rs[kr.R_BETA] = beta0
+    cs = np.zeros((kr.N_CS, K), dtype=complex)
+    cs[kr.C_RLAST] = cs[kr.C_RAWLAST] = 1.0
+    depth = max(nwc, int(ipar[kr.I_NWG]), 1)
+    args = (par, ipar, _bin_constants(p, fs, delay, K, band), bounds, rs, cs, np.zeros((3, depth, K)),
+            np.zeros((3, depth, K), dtype=np.int64), np.zeros((3, 2, K), dtype=np.int64))
+    return FastState(args, calibrate=band is not None, beam=beam, das_mix=bool(getattr(p, "das_mix", False)))
