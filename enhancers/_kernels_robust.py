@@ -12,7 +12,7 @@ monotone deque per bin (exact, O(1) per frame) instead of the reference's window
 
 Layout (built by :mod:`enhancers.fast_frames`, which documents each row): ``par`` float and ``ipar``
 int parameters, ``cst`` / ``icst`` per-bin constants ``(rows, K)``, the state ``rs`` (real rows),
-``cs`` (complex rows) and the deques ``dq_val`` / ``dq_idx`` ``(3, n, K)``, ``dq_hs`` ``(3, 2, K)``
+``cs`` (complex rows) and the deques ``dq_val`` / ``dq_idx`` ``(3, K, n)``, ``dq_hs`` ``(3, 2, K)``
 (head, size), all updated in place.  ``cache=True`` keeps the machine code under ``__pycache__``.
 """
 
@@ -88,18 +88,35 @@ def _pairwise_sum(x, lo, hi, lanes):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def _floor_min(dq_val, dq_idx, dq_hs, g, k, t, x, n_window):  # pragma: no cover - compiled
-    """Push ratio ``x`` of frame ``t`` into bin ``k``'s deque ``g``; the minimum over frames ``t - n + 1 .. t``."""
+    """Push ratio ``x`` of frame ``t`` into bin ``k``'s deque ``g``; the minimum over frames ``t - n + 1 .. t``.
+
+    The deque (a ring of ``n_window`` slots per bin, contiguous: ``dq_val[g, k]``) holds increasing
+    values of increasing frames; one push per frame, so at most the front expires."""
+    vals = dq_val[g, k]
+    idxs = dq_idx[g, k]
     head, size = dq_hs[g, 0, k], dq_hs[g, 1, k]
-    while size > 0 and dq_idx[g, head, k] <= t - n_window:  # expired at the front
-        head = (head + 1) % n_window
+    if size > 0 and idxs[head] <= t - n_window:
+        head += 1
+        if head == n_window:
+            head = 0
         size -= 1
-    while size > 0 and dq_val[g, (head + size - 1) % n_window, k] >= x:  # dominated at the back
+    back = head + size - 1  # the last slot (head - 1 when empty)
+    if back >= n_window:
+        back -= n_window
+    while size > 0 and vals[back] >= x:  # dominated by the new value
         size -= 1
-    slot = (head + size) % n_window
-    dq_val[g, slot, k] = x
-    dq_idx[g, slot, k] = t
+        back -= 1
+        if back < 0:
+            back += n_window
+    slot = back + 1
+    if slot >= n_window:
+        slot -= n_window
+    elif slot < 0:
+        slot += n_window
+    vals[slot] = x
+    idxs[slot] = t
     dq_hs[g, 0, k], dq_hs[g, 1, k] = head, size + 1
-    return dq_val[g, head, k]
+    return vals[head]
 
 
 @numba.njit(cache=True)

@@ -150,6 +150,6 @@ def new_state(p, fs: int, n_bins: int, *, delay: float, band: slice | None = Non
     cs = np.zeros((kr.N_CS, K), dtype=complex)
     cs[kr.C_RLAST] = cs[kr.C_RAWLAST] = 1.0
     depth = max(nwc, int(ipar[kr.I_NWG]), 1)
-    args = (par, ipar, _bin_constants(p, fs, delay, K, band), bounds, rs, cs, np.zeros((3, depth, K)),
-            np.zeros((3, depth, K), dtype=np.int64), np.zeros((3, 2, K), dtype=np.int64))
+    args = (par, ipar, _bin_constants(p, fs, delay, K, band), bounds, rs, cs, np.zeros((3, K, depth)),
+            np.zeros((3, K, depth), dtype=np.int64), np.zeros((3, 2, K), dtype=np.int64))
     return FastState(args, calibrate=band is not None, beam=beam, das_mix=bool(getattr(p, "das_mix", False)))

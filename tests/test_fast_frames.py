@@ -84,12 +84,12 @@ def _deque_floor(fast, g: int, n_window: int):
     """The minimum of the last ``n_window - 1`` floor ratios per bin (the reference's ``hist.min(0)``)."""
     _, ipar, _, _, _, _, val, idx, hs = fast.args
     t_next = ipar[kr.I_NFRAMES]
-    out = np.full(val.shape[2], np.inf)
-    for k in range(val.shape[2]):
+    out = np.full(val.shape[1], np.inf)
+    for k in range(val.shape[1]):
         for j in range(hs[g, 1, k]):
             slot = (hs[g, 0, k] + j) % n_window
-            if idx[g, slot, k] >= t_next - (n_window - 1):
-                out[k] = val[g, slot, k]
+            if idx[g, k, slot] >= t_next - (n_window - 1):
+                out[k] = val[g, k, slot]
                 break
     return out
 
