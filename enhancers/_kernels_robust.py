@@ -23,6 +23,8 @@ import math
 import numba
 import numpy as np
 
+from enhancers._kernels_wola import analyze_pair, synthesize
+
 TINY = 1e-300
 
 # ipar slots
@@ -410,3 +412,52 @@ def run_frames(X1, X2, par, ipar, cst, icst, rs, cs, dq_val, dq_idx, dq_hs, out_
             _beam(X1[f], x2, par, ipar, cst, rs, dq_val, dq_idx, dq_hs, t, frozen[f], out_c[0, f], out_r[0, f],
                   out_c[2, f], out_r[1, f])
         ipar[I_NFRAMES] = t + 1
+
+
+@numba.njit(cache=True)
+def run_block(block, tail, ola, queue, wst, win, rev, tw, par, ipar, cst, icst, rs, cs, dq_val, dq_idx,
+              dq_hs):  # pragma: no cover - compiled; covered through tests/test_fast_frames.py
+    """One streaming block ``(2, b)`` end to end: the filter bank's analysis (enhancers.filterbank's
+    frames, windows ``win = (w_a, w_s)``), :func:`run_frames`, synthesis and overlap-add.  Returns the
+    block's ``(C, b)`` output samples (``C = ola.shape[0]``: 2 = the calibrated pair, 1 = the beam).
+
+    Filter-bank state, updated in place: ``tail (2, N - 1)`` the last input samples, ``ola (C, N - R)``
+    the partial overlap-add sums, ``queue (C, R)`` completed samples not yet returned, ``wst`` =
+    (samples received modulo R, queued samples, R)."""
+    n = win.shape[1]
+    K = n // 2 + 1
+    r = wst[2]
+    b = block.shape[1]
+    phase, ql = wst[0], wst[1]
+    ext = np.empty((2, n - 1 + b))
+    ext[:, :n - 1] = tail
+    ext[:, n - 1:] = block
+    first_end = (r - 1 - phase) % r  # frame ends (block-relative) where (phase + j + 1) % R == 0
+    m = 0 if first_end >= b else (b - 1 - first_end) // r + 1
+    X = np.empty((2, m, K), dtype=np.complex128)
+    for j in range(m):
+        e = first_end + j * r  # the frame ending at block index e spans ext[e : e + N]
+        analyze_pair(ext[0, e:e + n], ext[1, e:e + n], win[0], rev, tw, X[0, j], X[1, j])
+    out_c = np.empty((3, m, K), dtype=np.complex128)
+    out_r = np.empty((2, m, K))
+    frozen = np.zeros((m, K), dtype=np.bool_)
+    run_frames(X[0], X[1], par, ipar, cst, icst, rs, cs, dq_val, dq_idx, dq_hs, out_c, out_r, frozen)
+    n_ch = ola.shape[0]
+    buf = np.empty((n_ch, ql + m * r))
+    buf[:, :ql] = queue[:, :ql]
+    y = np.empty((2, n))
+    for j in range(m):
+        if n_ch == 2:  # the calibrated pair: front and corrected rear
+            synthesize(X[0, j], out_c[0, j], True, win[1], rev, tw, y[0], y[1])
+        else:
+            synthesize(out_c[0, j], out_c[0, j], False, win[1], rev, tw, y[0], y[1])
+        for c in range(n_ch):
+            for t in range(n - r):
+                y[c, t] += ola[c, t]
+            buf[c, ql + j * r:ql + (j + 1) * r] = y[c, :r]
+            ola[c] = y[c, r:]
+    new_ql = ql + m * r - b
+    queue[:, :new_ql] = buf[:, b:]
+    tail[:, :] = ext[:, b:]
+    wst[0], wst[1] = (phase + b) % r, new_ql
+    return buf[:, :b]

@@ -24,7 +24,7 @@ import numpy as np
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import bin_omega
 
-__all__ = ["COMPILED", "FastState", "calibration_supported", "new_state"]
+__all__ = ["COMPILED", "FastState", "FusedStreaming", "calibration_supported", "new_state"]
 
 #: False: new streams (and batch runs) use the numpy reference instead of the compiled kernel.
 COMPILED = True
@@ -36,12 +36,22 @@ def calibration_supported(p) -> bool:
 
 
 class FastState:
-    """One stream's arrays (see :mod:`enhancers._kernels_robust` for the rows), updated in place."""
+    """One stream's arrays (see :mod:`enhancers._kernels_robust` for the rows), updated in place.
 
-    __slots__ = ("args", "calibrate", "beam", "das_mix")
+    ``wola``: the fused streaming step's filter-bank arrays (None where the frame length is not a
+    power of two: blocks then go through :class:`enhancers.filterbank.FilterBank` and :meth:`frames`).
+    """
 
-    def __init__(self, args: tuple, *, calibrate: bool, beam: bool, das_mix: bool):
-        self.args, self.calibrate, self.beam, self.das_mix = args, calibrate, beam, das_mix
+    __slots__ = ("args", "calibrate", "beam", "das_mix", "wola")
+
+    def __init__(self, args: tuple, *, calibrate: bool, beam: bool, das_mix: bool, wola: tuple | None = None):
+        self.args, self.calibrate, self.beam, self.das_mix, self.wola = args, calibrate, beam, das_mix, wola
+
+    def block(self, block: np.ndarray) -> np.ndarray:
+        """One streaming block ``(2, b)`` -> output samples ``(C, b)`` (analysis, frames, synthesis fused)."""
+        from enhancers._kernels_robust import run_block  # lazy: numba
+
+        return run_block(np.ascontiguousarray(block, dtype=float), *self.wola, *self.args)
 
     def frames(self, X: np.ndarray):
         """Frames ``X (2, F, K)`` -> ``(Y (2, F, K) or (F, K), record)``: the calibrated pair (calibration
@@ -122,10 +132,24 @@ def _bin_constants(p, fs: int, delay: float, K: int, band: slice | None) -> np.n
     return cst
 
 
-def new_state(p, fs: int, n_bins: int, *, delay: float, band: slice | None = None,
+def _wola_state(filterbank, n_out: int) -> tuple | None:
+    """The fused step's filter-bank arrays (see ``_kernels_robust.run_block``), None unless ``N = 2^k``."""
+    from enhancers._kernels_wola import fft_tables
+
+    n, r = filterbank.frame_len, filterbank.hop
+    if n & (n - 1) or n % r:
+        return None
+    rev, tw = fft_tables(n)
+    win = np.stack([filterbank.analysis_window, filterbank.synthesis_window])
+    return (np.zeros((2, n - 1)), np.zeros((n_out, n - r)), np.zeros((n_out, r)),
+            np.array([0, r - 1, r], dtype=np.int64), win, rev, tw)
+
+
+def new_state(p, fs: int, n_bins: int, *, delay: float, filterbank, band: slice | None = None,
               gate_window: int = 0, beam: bool = True) -> FastState:
     """A fresh stream's state for params ``p``: the calibration when ``band`` (its ``fit_band_hz`` bins)
-    is given, then the sub-band beamformer when ``beam`` (``gate_window``: its gate's floor in frames)."""
+    is given, then the sub-band beamformer when ``beam`` (``gate_window``: its gate's floor in frames);
+    ``filterbank`` (:class:`enhancers.filterbank.FilterBank`): the fused streaming step's."""
     from enhancers import _kernels_robust as kr
 
     K = n_bins
@@ -152,4 +176,16 @@ def new_state(p, fs: int, n_bins: int, *, delay: float, band: slice | None = Non
     depth = max(nwc, int(ipar[kr.I_NWG]), 1)
     args = (par, ipar, _bin_constants(p, fs, delay, K, band), bounds, rs, cs, np.zeros((3, K, depth)),
             np.zeros((3, K, depth), dtype=np.int64), np.zeros((3, 2, K), dtype=np.int64))
-    return FastState(args, calibrate=band is not None, beam=beam, das_mix=bool(getattr(p, "das_mix", False)))
+    return FastState(args, calibrate=band is not None, beam=beam, das_mix=bool(getattr(p, "das_mix", False)),
+                     wola=_wola_state(filterbank, 1 if beam else 2))
+
+
+class FusedStreaming:
+    """Mixin of the STFT enhancers with a compiled step: ``process_block`` runs the fused kernel
+    (filter bank included) when the stream's state is a :class:`FastState` with ``wola`` arrays."""
+
+    def _process_block(self, block, state):
+        algo = state.algo
+        if isinstance(algo, FastState) and algo.wola is not None:
+            return algo.block(block), state
+        return super()._process_block(block, state)

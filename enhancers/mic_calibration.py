@@ -547,7 +547,7 @@ def calibration_trace(record: dict) -> dict:
             "frozen": record["frozen"].astype(float)}
 
 
-class MicCalibration(StftEnhancer):
+class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
     """Rear-mic self-calibration: outputs ``[front, rear / r_hat]`` (see module docstring).
 
     Parameters (``MicCalibration.Params``)
@@ -591,7 +591,7 @@ class MicCalibration(StftEnhancer):
     def _algo_init(self, fs, n_bins):
         if fast_frames.COMPILED and fast_frames.calibration_supported(self.params):  # the compiled step
             return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
-                                         band=_band(self.params, fs), beam=False)
+                                         filterbank=self.filterbank, band=_band(self.params, fs), beam=False)
         return calibration_init(n_bins)
 
     def _frames(self, X, algo, fs):

@@ -292,7 +292,7 @@ class SubbandEbParams(StftParams):
                                  "must share the look phase)")
 
 
-class SubbandBase(StftEnhancer):
+class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
     """Sub-band EB on (possibly calibrated) spectra; subclasses may transform the rear mic first."""
 
     def _gate_window(self, fs: int) -> int:
@@ -301,8 +301,8 @@ class SubbandBase(StftEnhancer):
 
     def _fast_state(self, fs: int, n_bins: int, band: slice | None = None):
         """The compiled step's state (:mod:`enhancers.fast_frames`), with the calibration when ``band``."""
-        return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs), band=band,
-                                     gate_window=self._gate_window(fs))
+        return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
+                                     filterbank=self.filterbank, band=band, gate_window=self._gate_window(fs))
 
     def _cardioids(self, X1, X2, fs):
         ph = np.exp(-1j * bin_omega(int(self.params.frame_len)) * self.delay_samples(fs))

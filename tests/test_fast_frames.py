@@ -144,7 +144,7 @@ def test_compiled_step_equals_the_numpy_reference(frames, name, kwargs):
 @pytest.mark.parametrize("name", ["mic-calibration", "eb-subband", "eb-robust"])
 def test_compiled_batch_equals_reference_batch_and_streaming(name):
     """Whole enhancer: batch (compiled) == batch (reference) to 1e-12 of the peak, and streaming in 10 ms
-    blocks == batch exactly (the same kernel runs on the same frames)."""
+    blocks (the fused kernel: its own FFT and overlap-add) == batch to 1e-12 of the peak."""
     rng = np.random.default_rng(5)
     x = 0.1 * rng.standard_normal((2, FS))
     e = make(name)
@@ -160,7 +160,30 @@ def test_compiled_batch_equals_reference_batch_and_streaming(name):
     for i in range(0, x.shape[1], 160):
         out, state = e.process_block(x[:, i:i + 160], state)
         outs.append(out)
-    np.testing.assert_array_equal(np.concatenate(outs, axis=1), y)
+    assert isinstance(state.algo, fast_frames.FastState) and state.algo.wola is not None  # the fused path ran
+    _close("streaming", np.concatenate(outs, axis=1), y)
+
+
+def test_fft_pair_equals_numpy():
+    """The fused step's FFTs: analysis of two windowed frames == numpy's rfft, synthesis of one or two
+    channels == irfft times the window (imaginary DC / Nyquist parts ignored, as numpy does), to 1e-12
+    of the spectrum's / frame's peak (both are 256-point FFTs: they differ by rounding, ~1e-16)."""
+    from enhancers._kernels_wola import analyze_pair, fft_tables, synthesize
+
+    rng = np.random.default_rng(9)
+    n = 256
+    rev, tw = fft_tables(n)
+    w = np.hamming(n)
+    x = rng.standard_normal((2, n))
+    X = np.empty((2, n // 2 + 1), dtype=complex)
+    analyze_pair(x[0], x[1], w, rev, tw, X[0], X[1])
+    _close("rfft", X, np.fft.rfft(x * w, axis=-1))
+    Y = rng.standard_normal((2, n // 2 + 1)) + 1j * rng.standard_normal((2, n // 2 + 1))
+    y = np.empty((2, n))
+    synthesize(Y[0], Y[1], True, w, rev, tw, y[0], y[1])
+    _close("irfft pair", y, np.fft.irfft(Y, n=n, axis=-1) * w)
+    synthesize(Y[1], Y[1], False, w, rev, tw, y[0], y[1])
+    _close("irfft one", y[0], np.fft.irfft(Y[1], n=n) * w)
 
 
 def test_talker_blind_mode_runs_the_reference():
