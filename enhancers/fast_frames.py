@@ -31,7 +31,14 @@ COMPILED = True
 
 
 def calibration_supported(p) -> bool:
-    """Whether the kernel covers the calibration fields of ``p`` (not the talker-blind mode or its ramp)."""
+    """Whether the kernel covers the calibration fields of ``p`` (not the talker-blind mode or its ramp).
+
+    >>> import enhancers
+    >>> calibration_supported(enhancers.make("eb-robust").params)
+    True
+    >>> calibration_supported(enhancers.make("eb-robust", freeze_level_db=3.0).params)
+    False
+    """
     return p.freeze_level_db is None and float(p.ramp_frames) == 0.0
 
 
