@@ -25,6 +25,7 @@ always pass on the state a call returns, never reuse an old one.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -32,22 +33,39 @@ import numpy as np
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import bin_omega
 
-__all__ = ["COMPILED", "FastState", "FusedStreaming", "calibration_supported", "new_state"]
+__all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state"]
 
 #: False: new streams (and batch runs) use the numpy reference instead of the compiled kernel.
 COMPILED = True
 
 
-def calibration_supported(p) -> bool:
-    """Whether the kernel covers the calibration fields of ``p`` (not the talker-blind mode or its ramp).
+#: Fields the kernel implements for any value (the filter bank's, the calibration's default mode, the beamformer's).
+KERNEL_FIELDS = frozenset((
+    "spacing_m", "c_mps", "frame_len", "hop", "window",
+    "tau_s", "fit_band_hz", "smooth_bins", "smooth_frac", "estimate_every", "max_gain_db", "max_phase_deg",
+    "min_coherence", "phase_leak", "freeze_db", "freeze_band_db", "gate_lam_cal", "floor_lam_cal", "floor_s",
+    "mu", "lam", "eps", "beta0", "adapt_gate_db", "gate_lam", "gate_floor_s", "eq", "eq_max_gain_db",
+    "eq_noise_gain_db", "eq_highpass_hz", "eq_phase", "das_mix", "mix_lam", "mix_smooth_bins", "mix_alpha0",
+    "calibrate"))
+#: The talker-blind mode's variants: no effect while ``freeze_level_db`` is None and ``ramp_frames`` 0.
+_OFF_WITH_THE_MODE = frozenset(("level_band_hz", "level_floor_s", "level_floor_lam", "level_frontal_db",
+                                "level_hang_s", "level_ahead_s", "beam_freeze", "ramp_over_band"))
+
+
+def kernel_supports(p) -> bool:
+    """Whether the kernel covers params ``p``: not the talker-blind mode or its ramp, and every field it
+    does not know (an opt-in variant added later) at its default.
 
     >>> import enhancers
-    >>> calibration_supported(enhancers.make("eb-robust").params)
+    >>> kernel_supports(enhancers.make("eb-robust").params)
     True
-    >>> calibration_supported(enhancers.make("eb-robust", freeze_level_db=3.0).params)
+    >>> kernel_supports(enhancers.make("eb-robust", freeze_level_db=3.0).params)
     False
     """
-    return p.freeze_level_db is None and float(p.ramp_frames) == 0.0
+    if getattr(p, "freeze_level_db", None) is not None or float(getattr(p, "ramp_frames", 0.0)) != 0.0:
+        return False
+    known = KERNEL_FIELDS | _OFF_WITH_THE_MODE | {"freeze_level_db", "ramp_frames"}
+    return all(getattr(p, f.name) == f.default for f in dataclasses.fields(p) if f.name not in known)
 
 
 class FastState:

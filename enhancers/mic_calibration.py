@@ -589,7 +589,7 @@ class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
             self._check_calibration()
 
     def _algo_init(self, fs, n_bins):
-        if fast_frames.COMPILED and fast_frames.calibration_supported(self.params):  # the compiled step
+        if fast_frames.COMPILED and fast_frames.kernel_supports(self.params):  # the compiled step
             return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
                                          filterbank=self.filterbank, band=_band(self.params, fs), beam=False)
         return calibration_init(n_bins)

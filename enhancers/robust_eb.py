@@ -116,7 +116,7 @@ class RobustElkoBeamformer(SubbandBase):
 
     def _algo_init(self, fs, n_bins):
         p = self.params
-        if fast_frames.COMPILED and (not p.calibrate or fast_frames.calibration_supported(p)):  # compiled step
+        if fast_frames.COMPILED and fast_frames.kernel_supports(p):  # the compiled step
             return self._fast_state(fs, n_bins, band=_band(p, fs) if p.calibrate else None)
         return (calibration_init(n_bins), subband_init(n_bins, float(p.beta0)))
 

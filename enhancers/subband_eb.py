@@ -407,7 +407,7 @@ class SubbandElkoBeamformer(SubbandBase):
             self._check_subband()
 
     def _algo_init(self, fs, n_bins):
-        if fast_frames.COMPILED:
+        if fast_frames.COMPILED and fast_frames.kernel_supports(self.params):
             return self._fast_state(fs, n_bins)
         return subband_init(n_bins, float(self.params.beta0))
 

@@ -196,6 +196,20 @@ def test_talker_blind_mode_runs_the_reference():
     assert isinstance(make("eb-robust")._algo_init(FS, 129), fast_frames.FastState)
 
 
+def test_a_field_the_kernel_does_not_know_runs_the_reference():
+    """An opt-in variant added to the params later (here a made-up field) keeps the reference once set."""
+    import dataclasses
+
+    from enhancers.mic_calibration import MicCalibration
+
+    @dataclasses.dataclass(frozen=True)
+    class Later(MicCalibration.Params):
+        new_variant: float = 0.0
+
+    assert fast_frames.kernel_supports(Later())
+    assert not fast_frames.kernel_supports(Later(new_variant=1.0))
+
+
 def test_sums_follow_numpy_and_scipy_bitwise():
     """The kernel's band sum and bin smoothing reproduce np.sum (pairwise) and uniform_filter1d exactly."""
     from scipy.ndimage import uniform_filter1d
