@@ -144,19 +144,19 @@ class FilterBank:
         """
         n, r = self.frame_len, self.hop
         b = block.shape[-1]
-        ext = np.concatenate([state.tail, block], axis=-1)
+        ext = np.concatenate((state.tail, block), axis=-1)
         # frame ends (block-relative) at times where (phase + j + 1) % R == 0
         first_end = (r - 1 - state.phase) % r
-        ends = np.arange(first_end, b, r)
-        if ends.size:
-            # in ext coordinates a frame ending at block index j spans [j, j + N - 1]
-            if ends.size == 1:  # streaming at the hop: one frame, a plain slice
-                frames = ext[:, None, ends[0]:ends[0] + n]
-            else:
-                frames = sliding_window_view(ext, n, axis=-1)[:, ends, :]
-            X = np.fft.rfft(frames * self.analysis_window, axis=-1)
+        m = 0 if first_end >= b else (b - 1 - first_end) // r + 1  # frames completed in the block
+        wa = self._windows[0]
+        # in ext coordinates a frame ending at block index j spans [j, j + N - 1]
+        if m == 1:  # streaming at the hop: one frame, a plain slice (per-block overhead matters there)
+            X = np.fft.rfft(ext[:, first_end:first_end + n] * wa, axis=-1)[:, None]
+        elif m:
+            frames = sliding_window_view(ext, n, axis=-1)[:, first_end::r][:, :m]
+            X = np.fft.rfft(frames * wa, axis=-1)
         else:
-            X = np.zeros((block.shape[0], 0, self.n_bins), dtype=complex)
+            X = np.zeros((block.shape[0], 0, n // 2 + 1), dtype=complex)
         new = FilterBankState(
             tail=ext[:, ext.shape[-1] - (n - 1):].copy(),
             phase=(state.phase + b) % r,
@@ -174,7 +174,8 @@ class FilterBank:
         n, r, q = self.frame_len, self.hop, self._q
         n_ch, n_fr = Y.shape[0], Y.shape[1]
         if n_fr == 1:  # streaming at the hop: one frame, no accumulator (the same sums)
-            frame = np.fft.irfft(Y[:, 0], n=n, axis=-1) * self.synthesis_window
+            frame = np.fft.irfft(Y[:, 0], n=n, axis=-1)
+            frame *= self._windows[1]
             if q * r != n:
                 frame = np.concatenate([frame, np.zeros((n_ch, q * r - n))], axis=-1)
             frame[:, : (q - 1) * r] += state.ola

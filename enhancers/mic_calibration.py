@@ -156,6 +156,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from enhancers import fast_frames
 from enhancers.stft_stage import (
     TINY,
     GateState,
@@ -546,7 +547,7 @@ def calibration_trace(record: dict) -> dict:
             "frozen": record["frozen"].astype(float)}
 
 
-class MicCalibration(StftEnhancer):
+class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
     """Rear-mic self-calibration: outputs ``[front, rear / r_hat]`` (see module docstring).
 
     Parameters (``MicCalibration.Params``)
@@ -588,9 +589,15 @@ class MicCalibration(StftEnhancer):
             self._check_calibration()
 
     def _algo_init(self, fs, n_bins):
+        if fast_frames.COMPILED and fast_frames.kernel_supports(self.params):  # the compiled step
+            return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
+                                         filterbank=self.filterbank, band=_band(self.params, fs), beam=False)
         return calibration_init(n_bins)
 
     def _frames(self, X, algo, fs):
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+            Y, record = algo.frames(X)
+            return Y, algo, record
         r_hat, frozen, algo = calibration_step(X[0], X[1], algo, self.params, fs=fs, delay=self.delay_samples(fs))
         return np.stack([X[0], X[1] / r_hat]), algo, {"r_hat": r_hat, "frozen": frozen}
 

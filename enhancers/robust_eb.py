@@ -58,9 +58,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+from enhancers import fast_frames
 from enhancers.chain import Chain
 from enhancers.mic_calibration import (
     CalibrationParams,
+    _band,
     calibration_init,
     calibration_masks_step,
     calibration_trace,
@@ -113,9 +115,15 @@ class RobustElkoBeamformer(SubbandBase):
                 raise ParameterError("calibrate", self.calibrate, "True or False")
 
     def _algo_init(self, fs, n_bins):
-        return (calibration_init(n_bins), subband_init(n_bins, float(self.params.beta0)))
+        p = self.params
+        if fast_frames.COMPILED and fast_frames.kernel_supports(p):  # the compiled step
+            return self._fast_state(fs, n_bins, band=_band(p, fs) if p.calibrate else None)
+        return (calibration_init(n_bins), subband_init(n_bins, float(p.beta0)))
 
     def _frames(self, X, algo, fs):
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+            Y, record = algo.frames(X)
+            return Y[None], algo, record
         cal, sub = algo
         X1, X2 = X[0], X[1]
         record = {}

@@ -79,6 +79,7 @@ from typing import ClassVar
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from enhancers import fast_frames
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import (
     TINY,
@@ -291,12 +292,17 @@ class SubbandEbParams(StftParams):
                                  "must share the look phase)")
 
 
-class SubbandBase(StftEnhancer):
+class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
     """Sub-band EB on (possibly calibrated) spectra; subclasses may transform the rear mic first."""
 
     def _gate_window(self, fs: int) -> int:
         p = self.params
         return int(math.ceil(float(p.gate_floor_s) * fs / int(p.hop))) if p.gate_floor_s > 0 else 0
+
+    def _fast_state(self, fs: int, n_bins: int, band: slice | None = None):
+        """The compiled step's state (:mod:`enhancers.fast_frames`), with the calibration when ``band``."""
+        return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
+                                     filterbank=self.filterbank, band=band, gate_window=self._gate_window(fs))
 
     def _cardioids(self, X1, X2, fs):
         ph = np.exp(-1j * bin_omega(int(self.params.frame_len)) * self.delay_samples(fs))
@@ -401,9 +407,14 @@ class SubbandElkoBeamformer(SubbandBase):
             self._check_subband()
 
     def _algo_init(self, fs, n_bins):
+        if fast_frames.COMPILED and fast_frames.kernel_supports(self.params):
+            return self._fast_state(fs, n_bins)
         return subband_init(n_bins, float(self.params.beta0))
 
     def _frames(self, X, algo, fs):
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+            Y, record = algo.frames(X)
+            return Y[None], algo, record
         Y, record, algo = self._beamform(X[0], X[1], algo, fs)
         return Y[None], algo, record
 
