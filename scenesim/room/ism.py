@@ -488,6 +488,7 @@ def image_source_rir_bands(
     reflection_sign: float = 1.0,
     c: float | None = None,
     method: str = "auto",
+    seed: int | np.random.Generator | None = None,
 ) -> np.ndarray:
     """Per-band image-source RIRs ``(n_bands, n_mics, n_taps)``, before the band merge.
 
@@ -495,9 +496,17 @@ def image_source_rir_bands(
     ``reflection_bands[b]`` (default: the room's, every band) and the directivity's row ``b``
     (then ``n_bands`` must equal ``directivity.n_bands``).  Merge with
     :func:`scenesim.room.ism_bands.merge_bands`.  ``radius_m`` additionally keeps only images
-    within that distance of a mic (the hybrid renderer's early part; with ``max_order``, the
-    L1 images within the sphere's bounding box).  Other parameters as
-    :func:`image_source_rir` (``method`` in {"auto", "exact", "fast"}).
+    within that distance of a mic (with ``max_order``, the L1 images within the sphere's
+    bounding box).  Other parameters as :func:`image_source_rir` (``method`` in {"auto",
+    "exact", "fast"}).
+
+    A room with ``scattering`` is rendered as by :func:`image_source_rir`, band by band: the
+    images carry the specular share ``b sqrt(1 - s)`` of every reflection and each band gets
+    the scattered field of its own reflections ``reflection_bands[b]``
+    (:mod:`scenesim.room.scattering`; one coherent-noise realisation for all bands, seeded by
+    ``seed``, default derived from the geometry as :func:`image_source_rir`'s), whatever
+    ``radius_m`` (it limits the specular images only).  So
+    ``merge_bands(image_source_rir_bands(...))`` is ``image_source_rir(..., bands_hz=...)``.
 
     Example
     -------
@@ -517,8 +526,14 @@ def image_source_rir_bands(
     if pattern is not None and directivity.n_bands != n_bands:
         raise ParameterError("n_bands", n_bands, f"{directivity.n_bands} (the directivity's bands)")
     refl = _band_reflection(room, reflection_bands, n_bands)
-    imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m)
-    return _render(imgs, n_taps, fs, c, method, pattern)
+    scat = room.scattering_table()
+    spec = refl * np.sqrt(1.0 - scat)  # specular share, as image_source_rir
+    imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec, radius_m)
+    h_bands = _render(imgs, n_taps, fs, c, method, pattern)
+    if room.scattering is None or max_order == 0:
+        return h_bands
+    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1))
+    return _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, fs=fs)
 
 
 def _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m=None):
@@ -615,9 +630,10 @@ def image_source_rir(
     mixing_time_s : float, optional
         Hybrid only: end of the image-source part, default :data:`DEFAULT_MIXING_TIME_S`.
     seed : int or numpy.random.Generator, optional
-        Hybrid only: seed of the stochastic tail.  Default: derived from the room, source and
-        mic positions (reproducible, and different for two sources in one scene, whose tails
-        would otherwise be the same noise and correlated).
+        Seed of the stochastic parts: the hybrid's tail and a scattering room's scattered field
+        (any method).  Default: derived from the room, source and mic positions (reproducible,
+        and different for two sources in one scene, whose tails would otherwise be the same
+        noise and correlated).
 
     Returns
     -------
@@ -651,19 +667,42 @@ def image_source_rir(
             room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, noise
         )
     if scattered:
-        from scenesim.room.scattering import scattered_tail
-
-        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
-        n_taps = h_bands.shape[-1]
-        h_bands = h_bands + scattered_tail(
-            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
-            t0_s=t0, rng=None, noise=noise(n_taps),
-        )
+        h_bands = _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, fs=fs)
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
-        sos = signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
-        h = signal.sosfilt(sos, h, axis=-1)
+        h = highpass(h, highpass_hz, fs)
     return h
+
+
+@functools.lru_cache(maxsize=16)
+def _highpass_sos(highpass_hz: float, fs: int) -> np.ndarray:
+    return signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
+
+
+def highpass(h: np.ndarray, highpass_hz: float, fs: int) -> np.ndarray:
+    """``h`` (..., n_taps) through the causal 2nd-order Butterworth high-pass of :func:`image_source_rir`.
+
+    The design is cached (it cost as much as filtering a 1 s RIR pair).
+
+    >>> float(highpass(np.ones(16000), 20.0, 16000)[-1]) < 1e-3
+    True
+    """
+    # a copy: sosfilt wants a writable array, and the cached one must not change
+    return signal.sosfilt(_highpass_sos(float(highpass_hz), int(fs)).copy(), h, axis=-1)
+
+
+def _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, *, fs):
+    """``h_bands`` (n_bands, n_mics, n_taps) plus the room's scattered field per band
+    (:func:`scenesim.room.scattering.scattered_tail`; ``refl`` (n_bands, 6) total wall
+    reflections, ``scat`` (6,) scattering, ``noise`` a :class:`_ScatteredNoise`)."""
+    from scenesim.room.scattering import scattered_tail
+
+    t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+    n_taps = h_bands.shape[-1]
+    return h_bands + scattered_tail(
+        room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
+        t0_s=t0, rng=None, noise=noise(n_taps),
+    )
 
 
 def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
@@ -738,6 +777,7 @@ __all__ = [
     "MIN_SOURCE_MIC_DISTANCE_M",
     "decimate_grid",
     "default_length_s",
+    "highpass",
     "image_count_l1",
     "image_source_rir",
     "image_source_rir_bands",
