@@ -316,7 +316,8 @@ def _detrend(x: np.ndarray) -> np.ndarray:
 
 
 def diffuse_tail(
-    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None, noise=None
+    room, mics_m, *, n_taps, fs, c, reflection, pattern, max_order, rng, early=None, window=None, noise=None,
+    floor=None,
 ) -> np.ndarray:
     """Stochastic tail ``(n_bands, n_mics, n_taps)``: coherent noise x sqrt(expected energy).
 
@@ -326,8 +327,10 @@ def diffuse_tail(
     Each octave (:data:`scenesim.room.bands.OCTAVE_CENTERS_HZ`) of the noise decays as that
     octave of the ISM (:func:`octave_gains`): the octave's share of the noise (the complementary
     filter bank, so unshaped octaves add back to the noise exactly) is multiplied by
-    ``sqrt(gain) - 1`` and added.  Octaves whose gain stays within
-    :data:`_MIN_OCTAVE_GAIN_DB` of 0 dB over the first 60 dB of decay are left as they are.
+    ``sqrt(gain) - 1`` and added.  Octaves whose shaping changes the late energy by less than
+    :data:`_MIN_OCTAVE_GAIN_DB` over the first 60 dB of decay are left as they are; the late
+    energy includes ``floor`` (n_bands, n_taps), the expected ``h^2`` of other late fields (the
+    scattered one), which in furnished rooms drowns the specular tail's shaping.
 
     With ``early`` (n_bands, n_mics, n_early) and ``window = (lo, hi)`` the level of each band
     is matched to the early ISM's energy in those taps (:func:`level_correction`, the octave
@@ -343,7 +346,10 @@ def diffuse_tail(
     e = c / (4.0 * np.pi * float(np.prod(room.dims_m)) * fs) * octant  # = expected_energy(...)
     tiny = np.finfo(float).tiny
     live = e >= 1e-6 * e[:, :1]  # the first 60 dB of the decay
-    off = np.abs(10.0 * np.log10(np.maximum(g, tiny))) > _MIN_OCTAVE_GAIN_DB  # (n_bands, n_oct, n_grid)
+    other = 0.0 if floor is None else floor[:, np.minimum(np.round(t_grid * fs).astype(int), n_taps - 1)]
+    total = np.maximum(e + other, tiny)[:, None, :]
+    change = 10.0 * np.log10(np.maximum(total + e[:, None, :] * (g - 1.0), tiny) / total)
+    off = np.abs(change) > _MIN_OCTAVE_GAIN_DB  # (n_bands, n_oct, n_grid)
     active = _rfft_band_weights(512, float(fs), OCTAVE_CENTERS_HZ)[:, :-1].any(axis=1)  # below Nyquist
     shaped = [o for o in np.nonzero(active)[0] if np.any(off[:, o] & live)]
     if noise is None:

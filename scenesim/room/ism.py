@@ -532,8 +532,7 @@ def image_source_rir_bands(
     h_bands = _render(imgs, n_taps, fs, c, method, pattern)
     if room.scattering is None or max_order == 0:
         return h_bands
-    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1))
-    return _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, fs=fs)
+    return _ScatteredField(room, src, mics, fs, c, refl, scat, tail_rng(room, src, mics, seed, salt=1)).add_to(h_bands)
 
 
 def _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m=None):
@@ -661,13 +660,14 @@ def image_source_rir(
         imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec)
         h_bands = _render(imgs, n_taps, fs, c, method, pattern)
     scattered = room.scattering is not None and max_order != 0  # order 0: the direct path only
-    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1)) if scattered else None
+    field = (_ScatteredField(room, src, mics, fs, c, refl, scat, tail_rng(room, src, mics, seed, salt=1))
+             if scattered else None)
     if method == "hybrid":
         h_bands = _hybrid(
-            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, noise
+            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, field
         )
     if scattered:
-        h_bands = _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, fs=fs)
+        h_bands = field.add_to(h_bands)
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
         h = highpass(h, highpass_hz, fs)
@@ -691,20 +691,6 @@ def highpass(h: np.ndarray, highpass_hz: float, fs: int) -> np.ndarray:
     return signal.sosfilt(_highpass_sos(float(highpass_hz), int(fs)).copy(), h, axis=-1)
 
 
-def _add_scattered(room, src, mics, c, refl, scat, h_bands, noise, *, fs):
-    """``h_bands`` (n_bands, n_mics, n_taps) plus the room's scattered field per band
-    (:func:`scenesim.room.scattering.scattered_tail`; ``refl`` (n_bands, 6) total wall
-    reflections, ``scat`` (6,) scattering, ``noise`` a :class:`_ScatteredNoise`)."""
-    from scenesim.room.scattering import scattered_tail
-
-    t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
-    n_taps = h_bands.shape[-1]
-    return h_bands + scattered_tail(
-        room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
-        t0_s=t0, rng=None, noise=noise(n_taps),
-    )
-
-
 def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
     """The generator of a stochastic tail: ``seed``, or derived from the geometry when None
     (positions in micrometres as the entropy; ``salt`` tells two tails of one RIR apart)."""
@@ -716,26 +702,53 @@ def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
-class _ScatteredNoise:
-    """The scattered tail's coherent noise of a given length, drawn once.  The hybrid's specular
-    tail reuses it circularly shifted by half its length (white noise: independent samples,
-    the same inter-mic coherence), which saves one draw and keeps the scattered part -- and so
-    the early taps -- identical to the full model's."""
+class _ScatteredField:
+    """The room's scattered field (:mod:`scenesim.room.scattering`) for one source and mics, per
+    length: its coherent noise (drawn once) and expected energy (computed once).  The hybrid's
+    specular tail reuses the noise circularly shifted by half its length (white noise:
+    independent samples, the same inter-mic coherence), which saves one draw and keeps the
+    scattered part -- and so the early taps -- identical to the full model's; it reads the
+    energy to skip octave shaping that the scattered field would drown."""
 
-    def __init__(self, mics, fs, c, rng):
-        self._args, self._rng, self._made = (mics, fs, c), rng, {}
+    def __init__(self, room, src, mics, fs, c, refl, scat, rng):
+        self._args, self._rng, self._noise, self._energy = (room, src, mics, fs, c, refl, scat), rng, {}, {}
 
-    def __call__(self, n_taps: int) -> np.ndarray:
+    def noise(self, n_taps: int) -> np.ndarray:
+        """Coherent noise ``(n_mics, n_taps)``."""
         from scenesim.room.hybrid import coherent_noise
 
-        if n_taps not in self._made:
-            mics, fs, c = self._args
-            self._made[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
-        return self._made[n_taps]
+        if n_taps not in self._noise:
+            _, _, mics, fs, c, _, _ = self._args
+            self._noise[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
+        return self._noise[n_taps]
+
+    def _tables(self):
+        room, src, mics, fs, c, refl, scat = self._args
+        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+        return (room.dims_m, refl, np.broadcast_to(scat, refl.shape)), {"fs": fs, "c": c, "t0_s": t0}
+
+    def energy(self, n_taps: int) -> np.ndarray:
+        """Expected ``h^2`` per tap ``(n_bands, n_taps)``."""
+        from scenesim.room.scattering import scattered_energy
+
+        if n_taps not in self._energy:
+            args, kw = self._tables()
+            self._energy[n_taps] = scattered_energy(*args, n_taps, **kw)
+        return self._energy[n_taps]
+
+    def add_to(self, h_bands: np.ndarray) -> np.ndarray:
+        """``h_bands`` (n_bands, n_mics, n_taps) plus the scattered field
+        (:func:`scenesim.room.scattering.scattered_tail`)."""
+        from scenesim.room.scattering import scattered_tail
+
+        n_taps = h_bands.shape[-1]
+        (dims, refl, scat), kw = self._tables()
+        return h_bands + scattered_tail(dims, refl, scat, self._args[2], n_taps=n_taps, rng=None,
+                                        noise=self.noise(n_taps), energy=self.energy(n_taps), **kw)
 
 
 def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed,
-            scattered_noise=None):
+            scattered=None):
     """Early images (full-ISM identical up to the mixing time) + a coherent stochastic tail."""
     from scenesim.room.hybrid import crossfade, diffuse_tail
 
@@ -760,10 +773,11 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
     lo = max(n_mix // 2, math.ceil((direct + 0.01) * fs))
     window = (lo, n_mix) if n_mix - lo >= 0.005 * fs else None
-    shared = None if scattered_noise is None else np.roll(scattered_noise(n_taps), n_taps // 2, axis=-1)
+    shared = None if scattered is None else np.roll(scattered.noise(n_taps), n_taps // 2, axis=-1)
     tail = diffuse_tail(
         room, mics, n_taps=n_taps, fs=fs, c=c, reflection=refl, pattern=pattern,
         max_order=max_order, rng=rng, early=early, window=window, noise=shared,
+        floor=None if scattered is None else scattered.energy(n_taps),
     )
     return crossfade(early, tail, n_mix, SINC_HALF_WIDTH)
 
