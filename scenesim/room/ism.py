@@ -41,8 +41,9 @@ Renderers:
   pruned.  Memory: the grid, n_bands x n_mics x ~16 n_taps float64.
 * ``"hybrid"``: the images reaching taps before the mixing time, rendered by ``"fast"`` (so
   those taps equal the full ``"fast"`` RIR's), then a seeded stochastic tail with the ISM's
-  expected per-band energy decay and the diffuse-field coherence between the mics, level
-  matched to the early part (:mod:`scenesim.room.hybrid`); 40-tap power-complementary crossfade.
+  expected per-band energy decay, each octave decaying as the room's modes there (Weyl's
+  plane and axis modes), and the diffuse-field coherence between the mics, level matched to
+  the early part (:mod:`scenesim.room.hybrid`); 40-tap power-complementary crossfade.
 
 ``method="auto"`` uses ``"exact"`` for small image sets (<= :data:`AUTO_EXACT_MAX_TERMS`
 image-mic terms) and ``"fast"`` otherwise.
