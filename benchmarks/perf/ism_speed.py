@@ -162,32 +162,36 @@ def _hybrid_rows(args, fs):
     sos = signal.butter(2, 20.0, btype="highpass", fs=fs, output="sos")
     print(f"\nhybrid (mixing time {DEFAULT_MIXING_TIME_S:g} s) vs full ISM, default length, "
           f"median of {args.runs} runs; T30/EDT ratios of mic 0 after a 20 Hz high-pass; load {_load()}")
-    print(f"{'room':>12} {'walls':>9} {'rt60':>5} {'t_full s':>9} {'t_hyb s':>9} {'speedup':>8} {'T30 h/f':>8} "
-          f"{'EDT h/f':>8} {'early err':>9}")
+    print(f"{'room':>12} {'walls':>9} {'rt60':>5} {'t_full s':>9} {'t_hyb s':>9} {'speedup':>8} {'cpu x':>7} "
+          f"{'T30 h/f':>8} {'EDT h/f':>8} {'early err':>9}")
     for dims in HYBRID_ROOMS:
         src, mics = _scene(dims)
         for kind in args.hybrid_walls:
             for rt60 in args.hybrid_rt60:
                 room = _hybrid_room(dims, rt60, kind)
                 image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)  # warm (numba, caches)
-                t_f, t_h = [], []
+                t_f, t_h, c_f, c_h = [], [], [], []
                 for _ in range(args.runs):
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     full = image_source_rir(room, src, mics, fs=fs, method="fast", seed=0)  # same scattered noise
                     t_f.append(time.perf_counter() - t0)
-                    t0 = time.perf_counter()
+                    c_f.append(time.process_time() - c0)
+                    t0, c0 = time.perf_counter(), time.process_time()
                     hyb = image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)
                     t_h.append(time.perf_counter() - t0)
+                    c_h.append(time.process_time() - c0)
                 hp_f, hp_h = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, hyb[0])
                 t30 = measure_rt60(hp_h, fs, method="T30") / measure_rt60(hp_f, fs, method="T30")
                 edt = measure_rt60(hp_h, fs, method="EDT") / measure_rt60(hp_f, fs, method="EDT")
                 n_mix = round(DEFAULT_MIXING_TIME_S * fs)
                 early = np.abs(hyb[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()
                 mf, mh = statistics.median(t_f), statistics.median(t_h)
+                cpu = statistics.median(c_f) / max(statistics.median(c_h), 1e-9)
                 room_s = "x".join(f"{v:g}" for v in dims)
-                print(f"{room_s:>12} {kind:>9} {rt60:5.2f} {mf:9.4f} {mh:9.4f} {mf / mh:7.1f}x {t30:8.3f} "
-                      f"{edt:8.3f} {early:9.1e}")
-    print(f"load after the hybrid rows: {_load()}")
+                print(f"{room_s:>12} {kind:>9} {rt60:5.2f} {mf:9.4f} {mh:9.4f} {mf / mh:7.1f}x {cpu:6.1f}x "
+                      f"{t30:8.3f} {edt:8.3f} {early:9.1e}")
+    print(f"speedup = median wall-time ratio, cpu x = median process-CPU-time ratio (less affected by load); "
+          f"load after the hybrid rows: {_load()}")
 
 
 def _load() -> str:

@@ -119,7 +119,8 @@ def _kappa(dims, reflection) -> np.ndarray:
 
 def _decay_mean(kappa, u, w, r, d2, dims, max_order) -> np.ndarray:
     """``<D^2 exp(-r kappa . u) 1[L1 order <= N]>`` over directions ``u`` (n_dir, 3) with weights
-    ``w`` (n_dir,), at distances ``r`` (n_t,): ``(n_bands, n_t)``."""
+    ``w`` (n_dir,), at distances ``r`` (n_t,): ``(n_bands, n_t)``; with ``w`` (n_dir, G) one mean
+    per column, ``(n_bands, n_t, G)``."""
     # float32: numpy's float64 exp is scalar here (~6x slower than the SIMD float32 one, which
     # was 20 % of a hybrid render); the envelope needs ~1e-6 relative, float32 gives 1e-6.  The
     # slowest direction's decay is factored out in float64, so float32 underflows only terms
@@ -131,7 +132,10 @@ def _decay_mean(kappa, u, w, r, d2, dims, max_order) -> np.ndarray:
     if max_order is not None:
         order = r[:, None] * (u / dims).sum(axis=1)[None, :]  # (n_t, n_dir) L1 order
         gain *= (order <= max_order + 0.5)[None]
-    return np.matmul(gain, (d2 * w).astype(np.float32)[:, :, None])[..., 0] * np.exp(-slowest * r[None, :])
+    w2 = w.reshape(w.shape[0], -1)  # (n_dir, G)
+    mean = np.matmul(gain, (d2[:, :, None] * w2[None]).astype(np.float32))  # (n_bands, n_t, G)
+    mean = mean * np.exp(-slowest * r[None, :])[..., None]
+    return mean[..., 0] if w.ndim == 1 else mean
 
 
 def expected_energy(dims_m, reflection, times_s, *, fs, c, pattern=None, max_order=None):
@@ -241,13 +245,16 @@ def octave_gains(dims_m, reflection, times_s, centers_hz, *, fs, c, pattern=None
     r = c * np.concatenate([[0.0], np.asarray(times_s, dtype=float)])
     u, w = _octant_directions()
     terms = [_decay_mean(kappa, u, w, r, _mirror_mean_d2(u, pattern, n_bands), dims, max_order)]
+    # the 3 planes' quarter circles and the 3 axes in one pass: direction sets as weight columns
     pu, pw = _plane_directions()
+    n_p = pw.size
+    dirs = np.concatenate([pu.reshape(-1, 3), np.eye(3)])
+    groups = np.zeros((dirs.shape[0], 6))
     for d in range(3):
-        terms.append(_decay_mean(kappa, pu[d], pw, r, _mirror_mean_d2(pu[d], pattern, n_bands), dims, max_order))
-    for d in range(3):
-        axis = np.eye(3)[d : d + 1]
-        terms.append(_decay_mean(kappa, axis, np.ones(1), r, _mirror_mean_d2(axis, pattern, n_bands), dims, max_order))
-    terms = np.stack(terms)  # (7, n_bands, n_t + 1)
+        groups[d * n_p : (d + 1) * n_p, d] = pw
+        groups[3 * n_p + d, 3 + d] = 1.0
+    rest = _decay_mean(kappa, dirs, groups, r, _mirror_mean_d2(dirs, pattern, n_bands), dims, max_order)
+    terms = np.concatenate([terms[0][None], np.moveaxis(rest, -1, 0)])  # (7, n_bands, n_t + 1)
     modes = np.einsum("ok,bk,kbt->bot", weyl_weights(dims, centers_hz, fs=fs, c=c), _coherence(reflection), terms)
     tiny = np.finfo(float).tiny
     rel = modes[..., 1:] / np.maximum(modes[..., :1], tiny)
@@ -411,7 +418,8 @@ def _modulate(parts, t_grid, amps, fs) -> np.ndarray:
     acc = None
     for (n_o, p), amp in zip(low, amps):
         step = n_fft / n_o  # full-rate taps per reduced-rate sample
-        spec = sfft.rfft(p * np.interp(np.arange(n_o) * step / fs, t_grid, amp), axis=-1) * step
+        gain = np.interp(np.arange(n_o) * step / fs, t_grid, amp).astype(np.float32)
+        spec = sfft.rfft(p * gain, axis=-1) * np.float32(step)
         if acc is None:
             acc = np.zeros((p.shape[0], n_fft // 2 + 1), np.complex64)
         acc[:, : spec.shape[-1]] += spec
