@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -122,6 +123,7 @@ def hybrid() -> None:
         "corridor, calibrated 1 s": calibrate_room((14.0, 2.2, 2.8), 1.0),
         "corridor, specular": ShoeBox((14.0, 2.2, 2.8), 0.1),
         "banded + air, s 0.5": banded,
+        "banded + air, specular": replace(banded, scattering=None),
         "~100 m^3 calibrated 1 s": calibrate_room((6.0, 5.5, 3.0), 1.0),
         "~100 m^3 specular 1 s": ShoeBox((6.0, 5.5, 3.0), rt60_s=1.0),
         "6x5x3 specular 1 s": ShoeBox((6.0, 5.0, 3.0), rt60_s=1.0),
