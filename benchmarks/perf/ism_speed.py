@@ -13,16 +13,20 @@ Also printed: the ratio of process CPU times (pyroomacoustics runs ``num_threads
 2 on this machine; ours one), the agreement (max relative L2 over the two mics after alignment).
 
 Hybrid rows: ``method="hybrid"`` (default mixing time) against the full ISM (``"fast"``), both
-with the default length (1.2 RT60 + direct path) and every image within it, rooms with
-``ShoeBox(rt60_s=...)`` (Sabine absorption); T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.room.rt60``) as the
-ratio hybrid / full, and the early taps' max difference relative to the peak.
+with the default length (1.2 RT60 + direct path) and every image within it, in the rooms of
+:data:`HYBRID_ROOMS`, ``specular`` (``ShoeBox(rt60_s=...)``, Sabine absorption, no scattering)
+and ``scattered`` (``calibrate_room(dims, rt60)``: scattering 0.5, as scenes build rooms);
+T30 and EDT of mic 0 after a 20 Hz high-pass (``scenesim.room.rt60``) as the ratio
+hybrid / full, and the early taps' max difference relative to the peak.  A warm-up render
+precedes each row's timed runs (numba's first call and the caches are not the renderer's cost).
 
 Memory: peak traced memory (``tracemalloc``; numpy reports its buffers to it) of one RIR at
 RT60 ``--memory-rt60`` (default 2 s) by the fast renderer and, with ``--exact-memory``, by the
 exact one (several minutes: ~25 M images x 80 taps x 2 mics in numpy).
 
-JIT: the first call of the compiled kernel in fresh processes, with an empty numba cache
-(compile) and then with the cache written by that run (load).
+JIT: the first calls of the compiled kernels (``ism_kernels.warm_up``) in fresh processes, with an
+empty numba cache (compile) and then with the cache written by that run (load); the imports
+before them (numba, scipy via scenesim) are timed apart.
 
 Run: ``python -m benchmarks.perf.ism_speed [--runs 5] [--exact-memory]``.  Timings are
 wall-clock and noisy on a shared machine.
@@ -64,6 +68,9 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--rt60", type=float, nargs="+", default=[0.2, 0.4, 0.6, 1.0])
     parser.add_argument("--hybrid-rt60", type=float, nargs="+", default=[0.6, 1.0, 2.0])
+    parser.add_argument("--hybrid-walls", nargs="+", choices=("specular", "scattered"),
+                        default=["specular", "scattered"],
+                        help="hybrid rows: Sabine rooms without scattering and/or calibrated scattered rooms")
     parser.add_argument("--memory-rt60", type=float, default=2.0)
     parser.add_argument("--exact-memory", action="store_true",
                         help="also trace the exact renderer at --memory-rt60 (minutes)")
@@ -119,8 +126,9 @@ def main(argv=None) -> int:
           f"(pyroomacoustics uses num_threads={pra.constants.get('num_threads')}, ours 1 thread)")
     _hybrid_rows(args, fs)
     _memory_rows(args, fs)
-    print(f"JIT (first call in a fresh process): compile {jit[0]:.2f} s with an empty numba cache, "
-          f"{jit[1]:.2f} s loading the cache (cache=True); import of numba included")
+    print(f"JIT (first calls of every kernel in a fresh process): compile {jit[0]:.2f} s with an empty "
+          f"numba cache, {jit[1]:.2f} s loading the cache (cache=True); import of numba + scenesim "
+          f"before them {jit[2]:.2f} s")
     return 0
 
 
@@ -132,39 +140,63 @@ def _scene(dims):
     return d * [0.3, 0.35, 0.0] + [0, 0, 1.5], mics
 
 
+HYBRID_ROOMS = ([6.0, 5.0, 3.0], [5.0, 4.0, 3.0], [6.0, 5.5, 3.0], [14.0, 2.2, 2.8])
+"""Hybrid rows' rooms: the two ISM rooms, a ~100 m^3 room and a corridor (issue 18's targets)."""
+
+
+def _hybrid_room(dims, rt60, kind):
+    """``"specular"``: Sabine absorption, no scattering; ``"scattered"``: the calibrated room
+    (closed loop, the default scattering 0.5), as scenes build it."""
+    from scenesim.room.calibration import calibrate_room
+    from scenesim.room.shoebox import ShoeBox
+
+    return ShoeBox(tuple(dims), rt60_s=rt60) if kind == "specular" else calibrate_room(tuple(dims), rt60)
+
+
 def _hybrid_rows(args, fs):
     from scipy import signal
 
     from scenesim.room.ism import DEFAULT_MIXING_TIME_S, image_source_rir
     from scenesim.room.rt60 import measure_rt60
-    from scenesim.room.shoebox import ShoeBox
 
     sos = signal.butter(2, 20.0, btype="highpass", fs=fs, output="sos")
     print(f"\nhybrid (mixing time {DEFAULT_MIXING_TIME_S:g} s) vs full ISM, default length, "
-          f"median of {args.runs} runs; T30/EDT ratios of mic 0 after a 20 Hz high-pass")
-    print(f"{'room':>10} {'rt60':>5} {'t_full s':>9} {'t_hyb s':>9} {'speedup':>8} {'T30 h/f':>8} "
-          f"{'EDT h/f':>8} {'early err':>9}")
-    for dims in ([6.0, 5.0, 3.0], [5.0, 4.0, 3.0]):
+          f"median of {args.runs} runs; T30/EDT ratios of mic 0 after a 20 Hz high-pass; load {_load()}")
+    print(f"{'room':>12} {'walls':>9} {'rt60':>5} {'t_full s':>9} {'t_hyb s':>9} {'speedup':>8} {'cpu x':>7} "
+          f"{'T30 h/f':>8} {'EDT h/f':>8} {'early err':>9}")
+    for dims in HYBRID_ROOMS:
         src, mics = _scene(dims)
-        for rt60 in args.hybrid_rt60:
-            room = ShoeBox(tuple(dims), rt60_s=rt60)
-            t_f, t_h = [], []
-            for _ in range(args.runs):
-                t0 = time.perf_counter()
-                full = image_source_rir(room, src, mics, fs=fs, method="fast")
-                t_f.append(time.perf_counter() - t0)
-                t0 = time.perf_counter()
-                hyb = image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)
-                t_h.append(time.perf_counter() - t0)
-            hp_f, hp_h = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, hyb[0])
-            t30 = measure_rt60(hp_h, fs, method="T30") / measure_rt60(hp_f, fs, method="T30")
-            edt = measure_rt60(hp_h, fs, method="EDT") / measure_rt60(hp_f, fs, method="EDT")
-            n_mix = round(DEFAULT_MIXING_TIME_S * fs)
-            early = np.abs(hyb[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()
-            mf, mh = statistics.median(t_f), statistics.median(t_h)
-            room_s = "x".join(f"{v:g}" for v in dims)
-            print(f"{room_s:>10} {rt60:5.2f} {mf:9.4f} {mh:9.4f} {mf / mh:7.1f}x {t30:8.3f} "
-                  f"{edt:8.3f} {early:9.1e}")
+        for kind in args.hybrid_walls:
+            for rt60 in args.hybrid_rt60:
+                room = _hybrid_room(dims, rt60, kind)
+                image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)  # warm (numba, caches)
+                t_f, t_h, c_f, c_h = [], [], [], []
+                for _ in range(args.runs):
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    full = image_source_rir(room, src, mics, fs=fs, method="fast", seed=0)  # same scattered noise
+                    t_f.append(time.perf_counter() - t0)
+                    c_f.append(time.process_time() - c0)
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    hyb = image_source_rir(room, src, mics, fs=fs, method="hybrid", seed=0)
+                    t_h.append(time.perf_counter() - t0)
+                    c_h.append(time.process_time() - c0)
+                hp_f, hp_h = signal.sosfilt(sos, full[0]), signal.sosfilt(sos, hyb[0])
+                t30 = measure_rt60(hp_h, fs, method="T30") / measure_rt60(hp_f, fs, method="T30")
+                edt = measure_rt60(hp_h, fs, method="EDT") / measure_rt60(hp_f, fs, method="EDT")
+                n_mix = round(DEFAULT_MIXING_TIME_S * fs)
+                early = np.abs(hyb[:, :n_mix] - full[:, :n_mix]).max() / np.abs(full).max()
+                mf, mh = statistics.median(t_f), statistics.median(t_h)
+                cpu = statistics.median(c_f) / max(statistics.median(c_h), 1e-9)
+                room_s = "x".join(f"{v:g}" for v in dims)
+                print(f"{room_s:>12} {kind:>9} {rt60:5.2f} {mf:9.4f} {mh:9.4f} {mf / mh:7.1f}x {cpu:6.1f}x "
+                      f"{t30:8.3f} {edt:8.3f} {early:9.1e}")
+    print(f"speedup = median wall-time ratio, cpu x = median process-CPU-time ratio (less affected by load); "
+          f"load after the hybrid rows: {_load()}")
+
+
+def _load() -> str:
+    """The 1/5/15-minute load averages (the machine is shared: timings depend on them)."""
+    return " ".join(f"{v:.2f}" for v in os.getloadavg())
 
 
 def _memory_rows(args, fs):
@@ -194,17 +226,19 @@ def _memory_rows(args, fs):
 
 
 def _jit_cost():
-    """Seconds of the first kernel call in a fresh process: (empty cache, warm cache)."""
+    """Seconds in a fresh process: (first kernel calls with an empty numba cache, the same
+    with the cache that run wrote, import of numba + scenesim.room.ism_kernels in the second)."""
     code = ("import time; t = time.perf_counter(); from scenesim.room.ism_kernels import warm_up; "
-            "warm_up(); print(time.perf_counter() - t)")
+            "t1 = time.perf_counter(); warm_up(); print(t1 - t, time.perf_counter() - t1)")
     out = []
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         for _ in range(2):
             res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                                  text=True, check=True)
-            out.append(float(res.stdout.strip().splitlines()[-1]))
-    return out
+            imp, first = (float(v) for v in res.stdout.strip().splitlines()[-1].split())
+            out.append(first)
+    return out[0], out[1], imp
 
 
 if __name__ == "__main__":

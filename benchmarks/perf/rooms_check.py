@@ -11,7 +11,8 @@ Sections (``--only`` picks some; each prints a table):
 * ``moving``: a 1 kHz and a 4 kHz tone from a talker walking 1 m/s: the largest spectral line
   outside the Doppler band, re the tone, per-image delays vs 50 ms blocks.
 * ``hybrid``: hybrid vs full model, per-octave T30 (125 Hz-4 kHz) in a corridor and in a room
-  with octave-band absorption and air, and the hybrid/full speed at RT60 1 s.
+  with octave-band absorption and air (scattered), in specular corridor and near-cubic rooms,
+  and the hybrid/full speed at RT60 1 s.
 
 Run: ``python -m benchmarks.perf.rooms_check [--only targets pra moving hybrid]``.  Timings are
 wall clock on a shared machine (quote ``uptime``).
@@ -22,6 +23,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -121,10 +123,14 @@ def hybrid() -> None:
         "corridor, calibrated 1 s": calibrate_room((14.0, 2.2, 2.8), 1.0),
         "corridor, specular": ShoeBox((14.0, 2.2, 2.8), 0.1),
         "banded + air, s 0.5": banded,
+        "banded + air, specular": replace(banded, scattering=None),
         "~100 m^3 calibrated 1 s": calibrate_room((6.0, 5.5, 3.0), 1.0),
+        "~100 m^3 specular 1 s": ShoeBox((6.0, 5.5, 3.0), rt60_s=1.0),
+        "6x5x3 specular 1 s": ShoeBox((6.0, 5.0, 3.0), rt60_s=1.0),
     }
-    print("## Hybrid vs full (both mics of the 2.14 cm pair): per-octave T30 ratio of mic 0 (125 Hz-4 kHz), "
-          "median wall time of 3 runs full / hybrid")
+    print("## Hybrid vs full (both mics of the 2.14 cm pair): per-octave T30 ratio of mic 0 (125 Hz-4 kHz, "
+          "mean over seeds 0-3, the same seed for both: the same scattered field), median wall time of 3 runs "
+          "full / hybrid")
     for name, room in cases.items():
         d = np.asarray(room.dims_m)
         src, mic = d * [0.2, 0.4, 0.5], MicPair(tuple(d * [0.75, 0.6, 0.4])).positions_m
@@ -132,14 +138,12 @@ def hybrid() -> None:
         for _ in range(3):
             for method in runs:
                 t0 = time.perf_counter()
-                h = room_rir(room, src, mic, fs=FS, method=method)[0]
+                room_rir(room, src, mic, fs=FS, method=method)
                 runs[method].append(time.perf_counter() - t0)
-                if method == "fast":
-                    full = h
-                else:
-                    hyb = h
         t_full, t_hyb = (statistics.median(runs[m]) for m in ("fast", "hybrid"))
-        ratio = octave_rt60(hyb, FS, centers) / octave_rt60(full, FS, centers)
+        ratio = np.mean([octave_rt60(room_rir(room, src, mic, fs=FS, method="hybrid", seed=s)[0], FS, centers)
+                         / octave_rt60(room_rir(room, src, mic, fs=FS, method="fast", seed=s)[0], FS, centers)
+                         for s in range(4)], axis=0)
         print(f"  {name:26s} " + " ".join(f"{v:5.3f}" for v in ratio)
               + f"   {t_full:6.2f} s / {t_hyb:5.2f} s = {t_full / t_hyb:5.1f}x")
 

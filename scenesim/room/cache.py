@@ -24,7 +24,9 @@ from scenesim.memo import (  # noqa: F401  (re-exported: the public names of thi
     stable_hash,
 )
 
-CACHE_FORMAT = "scenesim-rir-v3"  # v2: room_rir (20 Hz high-pass, bands, air); v3: scattering (issue 18)
+# v2: room_rir (20 Hz high-pass, bands, air); v3: scattering (issue 18);
+# v4: per-octave hybrid tail, float32 tail noise (issue 18)
+CACHE_FORMAT = "scenesim-rir-v4"
 """Bumped when the cached quantity's definition changes, which invalidates old disk files."""
 
 

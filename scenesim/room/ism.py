@@ -41,8 +41,9 @@ Renderers:
   pruned.  Memory: the grid, n_bands x n_mics x ~16 n_taps float64.
 * ``"hybrid"``: the images reaching taps before the mixing time, rendered by ``"fast"`` (so
   those taps equal the full ``"fast"`` RIR's), then a seeded stochastic tail with the ISM's
-  expected per-band energy decay and the diffuse-field coherence between the mics, level
-  matched to the early part (:mod:`scenesim.room.hybrid`); 40-tap power-complementary crossfade.
+  expected per-band energy decay, each octave decaying as the room's modes there (Weyl's
+  plane and axis modes), and the diffuse-field coherence between the mics, level matched to
+  the early part (:mod:`scenesim.room.hybrid`); 40-tap power-complementary crossfade.
 
 ``method="auto"`` uses ``"exact"`` for small image sets (<= :data:`AUTO_EXACT_MAX_TERMS`
 image-mic terms) and ``"fast"`` otherwise.
@@ -488,6 +489,7 @@ def image_source_rir_bands(
     reflection_sign: float = 1.0,
     c: float | None = None,
     method: str = "auto",
+    seed: int | np.random.Generator | None = None,
 ) -> np.ndarray:
     """Per-band image-source RIRs ``(n_bands, n_mics, n_taps)``, before the band merge.
 
@@ -495,9 +497,17 @@ def image_source_rir_bands(
     ``reflection_bands[b]`` (default: the room's, every band) and the directivity's row ``b``
     (then ``n_bands`` must equal ``directivity.n_bands``).  Merge with
     :func:`scenesim.room.ism_bands.merge_bands`.  ``radius_m`` additionally keeps only images
-    within that distance of a mic (the hybrid renderer's early part; with ``max_order``, the
-    L1 images within the sphere's bounding box).  Other parameters as
-    :func:`image_source_rir` (``method`` in {"auto", "exact", "fast"}).
+    within that distance of a mic (with ``max_order``, the L1 images within the sphere's
+    bounding box).  Other parameters as :func:`image_source_rir` (``method`` in {"auto",
+    "exact", "fast"}).
+
+    A room with ``scattering`` is rendered as by :func:`image_source_rir`, band by band: the
+    images carry the specular share ``b sqrt(1 - s)`` of every reflection and each band gets
+    the scattered field of its own reflections ``reflection_bands[b]``
+    (:mod:`scenesim.room.scattering`; one coherent-noise realisation for all bands, seeded by
+    ``seed``, default derived from the geometry as :func:`image_source_rir`'s), whatever
+    ``radius_m`` (it limits the specular images only).  So
+    ``merge_bands(image_source_rir_bands(...))`` is ``image_source_rir(..., bands_hz=...)``.
 
     Example
     -------
@@ -517,8 +527,13 @@ def image_source_rir_bands(
     if pattern is not None and directivity.n_bands != n_bands:
         raise ParameterError("n_bands", n_bands, f"{directivity.n_bands} (the directivity's bands)")
     refl = _band_reflection(room, reflection_bands, n_bands)
-    imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m)
-    return _render(imgs, n_taps, fs, c, method, pattern)
+    scat = room.scattering_table()
+    spec = refl * np.sqrt(1.0 - scat)  # specular share, as image_source_rir
+    imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec, radius_m)
+    h_bands = _render(imgs, n_taps, fs, c, method, pattern)
+    if room.scattering is None or max_order == 0:
+        return h_bands
+    return _ScatteredField(room, src, mics, fs, c, refl, scat, tail_rng(room, src, mics, seed, salt=1)).add_to(h_bands)
 
 
 def _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m=None):
@@ -615,9 +630,10 @@ def image_source_rir(
     mixing_time_s : float, optional
         Hybrid only: end of the image-source part, default :data:`DEFAULT_MIXING_TIME_S`.
     seed : int or numpy.random.Generator, optional
-        Hybrid only: seed of the stochastic tail.  Default: derived from the room, source and
-        mic positions (reproducible, and different for two sources in one scene, whose tails
-        would otherwise be the same noise and correlated).
+        Seed of the stochastic parts: the hybrid's tail and a scattering room's scattered field
+        (any method).  Default: derived from the room, source and mic positions (reproducible,
+        and different for two sources in one scene, whose tails would otherwise be the same
+        noise and correlated).
 
     Returns
     -------
@@ -645,25 +661,35 @@ def image_source_rir(
         imgs, n_taps = _image_set(room, src, mics, fs, c, max_order, length_s, sign, spec)
         h_bands = _render(imgs, n_taps, fs, c, method, pattern)
     scattered = room.scattering is not None and max_order != 0  # order 0: the direct path only
-    noise = _ScatteredNoise(mics, fs, c, tail_rng(room, src, mics, seed, salt=1)) if scattered else None
+    field = (_ScatteredField(room, src, mics, fs, c, refl, scat, tail_rng(room, src, mics, seed, salt=1))
+             if scattered else None)
     if method == "hybrid":
         h_bands = _hybrid(
-            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, noise
+            room, src, mics, fs, c, max_order, length_s, sign, spec, pattern, mixing_time_s, seed, field
         )
     if scattered:
-        from scenesim.room.scattering import scattered_tail
-
-        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
-        n_taps = h_bands.shape[-1]
-        h_bands = h_bands + scattered_tail(
-            room.dims_m, refl, np.broadcast_to(scat, refl.shape), mics, n_taps=n_taps, fs=fs, c=c,
-            t0_s=t0, rng=None, noise=noise(n_taps),
-        )
+        h_bands = field.add_to(h_bands)
     h = h_bands[0] if n_bands == 1 else merge_bands(h_bands, fs, bands)
     if highpass_hz is not None:
-        sos = signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
-        h = signal.sosfilt(sos, h, axis=-1)
+        h = highpass(h, highpass_hz, fs)
     return h
+
+
+@functools.lru_cache(maxsize=16)
+def _highpass_sos(highpass_hz: float, fs: int) -> np.ndarray:
+    return signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos")
+
+
+def highpass(h: np.ndarray, highpass_hz: float, fs: int) -> np.ndarray:
+    """``h`` (..., n_taps) through the causal 2nd-order Butterworth high-pass of :func:`image_source_rir`.
+
+    The design is cached (it cost as much as filtering a 1 s RIR pair).
+
+    >>> float(highpass(np.ones(16000), 20.0, 16000)[-1]) < 1e-3
+    True
+    """
+    # a copy: sosfilt wants a writable array, and the cached one must not change
+    return signal.sosfilt(_highpass_sos(float(highpass_hz), int(fs)).copy(), h, axis=-1)
 
 
 def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
@@ -677,26 +703,53 @@ def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
-class _ScatteredNoise:
-    """The scattered tail's coherent noise of a given length, drawn once.  The hybrid's specular
-    tail reuses it circularly shifted by half its length (white noise: independent samples,
-    the same inter-mic coherence), which saves one draw and keeps the scattered part -- and so
-    the early taps -- identical to the full model's."""
+class _ScatteredField:
+    """The room's scattered field (:mod:`scenesim.room.scattering`) for one source and mics, per
+    length: its coherent noise (drawn once) and expected energy (computed once).  The hybrid's
+    specular tail reuses the noise circularly shifted by half its length (white noise:
+    independent samples, the same inter-mic coherence), which saves one draw and keeps the
+    scattered part -- and so the early taps -- identical to the full model's; it reads the
+    energy to skip octave shaping that the scattered field would drown."""
 
-    def __init__(self, mics, fs, c, rng):
-        self._args, self._rng, self._made = (mics, fs, c), rng, {}
+    def __init__(self, room, src, mics, fs, c, refl, scat, rng):
+        self._args, self._rng, self._noise, self._energy = (room, src, mics, fs, c, refl, scat), rng, {}, {}
 
-    def __call__(self, n_taps: int) -> np.ndarray:
+    def noise(self, n_taps: int) -> np.ndarray:
+        """Coherent noise ``(n_mics, n_taps)``."""
         from scenesim.room.hybrid import coherent_noise
 
-        if n_taps not in self._made:
-            mics, fs, c = self._args
-            self._made[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
-        return self._made[n_taps]
+        if n_taps not in self._noise:
+            _, _, mics, fs, c, _, _ = self._args
+            self._noise[n_taps] = coherent_noise(mics, n_taps, fs=fs, c=c, rng=self._rng)
+        return self._noise[n_taps]
+
+    def _tables(self):
+        room, src, mics, fs, c, refl, scat = self._args
+        t0 = float(np.min(np.linalg.norm(mics - src, axis=1))) / c
+        return (room.dims_m, refl, np.broadcast_to(scat, refl.shape)), {"fs": fs, "c": c, "t0_s": t0}
+
+    def energy(self, n_taps: int) -> np.ndarray:
+        """Expected ``h^2`` per tap ``(n_bands, n_taps)``."""
+        from scenesim.room.scattering import scattered_energy
+
+        if n_taps not in self._energy:
+            args, kw = self._tables()
+            self._energy[n_taps] = scattered_energy(*args, n_taps, **kw)
+        return self._energy[n_taps]
+
+    def add_to(self, h_bands: np.ndarray) -> np.ndarray:
+        """``h_bands`` (n_bands, n_mics, n_taps) plus the scattered field
+        (:func:`scenesim.room.scattering.scattered_tail`)."""
+        from scenesim.room.scattering import scattered_tail
+
+        n_taps = h_bands.shape[-1]
+        (dims, refl, scat), kw = self._tables()
+        return h_bands + scattered_tail(dims, refl, scat, self._args[2], n_taps=n_taps, rng=None,
+                                        noise=self.noise(n_taps), energy=self.energy(n_taps), **kw)
 
 
 def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mixing_time_s, seed,
-            scattered_noise=None):
+            scattered=None):
     """Early images (full-ISM identical up to the mixing time) + a coherent stochastic tail."""
     from scenesim.room.hybrid import crossfade, diffuse_tail
 
@@ -721,10 +774,11 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
     direct = float(np.max(np.linalg.norm(mics - src, axis=1))) / c
     lo = max(n_mix // 2, math.ceil((direct + 0.01) * fs))
     window = (lo, n_mix) if n_mix - lo >= 0.005 * fs else None
-    shared = None if scattered_noise is None else np.roll(scattered_noise(n_taps), n_taps // 2, axis=-1)
+    shared = None if scattered is None else np.roll(scattered.noise(n_taps), n_taps // 2, axis=-1)
     tail = diffuse_tail(
         room, mics, n_taps=n_taps, fs=fs, c=c, reflection=refl, pattern=pattern,
         max_order=max_order, rng=rng, early=early, window=window, noise=shared,
+        floor=None if scattered is None else scattered.energy(n_taps),
     )
     return crossfade(early, tail, n_mix, SINC_HALF_WIDTH)
 
@@ -738,6 +792,7 @@ __all__ = [
     "MIN_SOURCE_MIC_DISTANCE_M",
     "decimate_grid",
     "default_length_s",
+    "highpass",
     "image_count_l1",
     "image_source_rir",
     "image_source_rir_bands",

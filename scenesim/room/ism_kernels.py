@@ -183,7 +183,9 @@ def scatter_moving(x, path, hop, base, sign, gain, mics, air_np, grid, u, scale,
                     grid[b, m, b0 + 2] += amp * w3
 
 
-@numba.njit(cache=True, nogil=True)
+# reassoc/contract let LLVM vectorise the three sums over directions per step (5x faster,
+# results change by ~1e-15 relative: only the summation order).
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
 def scattered_steps(decay, gain_prev, gain_now, inject, w, src_decay, src_coef, out):  # pragma: no cover
     """Step the scattered-energy balance of :mod:`scenesim.room.scattering` (its ``_integrate``).
 

@@ -39,7 +39,7 @@ import numpy as np
 from scipy import signal as ss
 
 from scenesim.room.bands import active_bands, combine_bands
-from scenesim.room.ism import SINC_HALF_WIDTH, _axis_terms, decimate_grid
+from scenesim.room.ism import SINC_HALF_WIDTH, _axis_terms, decimate_grid, highpass
 from scenesim.room.render import air_db_per_m, band_centers, room_rir
 
 MOVING_OVERSAMPLING = 8
@@ -112,7 +112,7 @@ def render_early(x, room, path_ctrl, hop: int, mics, images, *, fs: int, n_out: 
             bands[b] = decimate_grid(grid[b], n_out, u, dtype=np.float64)
         y = combine_bands(bands, fs, centers)
     if highpass_hz is not None:  # the causal filter room_rir applies
-        y = ss.sosfilt(ss.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos"), y, axis=-1)
+        y = highpass(y, highpass_hz, fs)
     return y
 
 

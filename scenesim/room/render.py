@@ -27,12 +27,11 @@ Pass ``highpass_hz=None`` for the raw sum.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from scenesim.errors import ParameterError
 from scenesim.room.air import air_gain
 from scenesim.room.bands import OCTAVE_CENTERS_HZ, active_bands, combine_bands, exact_midband_hz
-from scenesim.room.ism import default_length_s, image_source_rir
+from scenesim.room.ism import default_length_s, highpass, image_source_rir
 from scenesim.room.shoebox import ShoeBox
 from scenesim.validate import check_fs, check_range
 
@@ -113,7 +112,7 @@ def room_rir(room: ShoeBox, source_m, mics_m, *, fs: int, highpass_hz: float | N
     bands = band_rirs(room, source_m, mics_m, fs=fs, **kwargs)
     h = combine_bands(bands, fs, band_centers(room))
     if highpass_hz is not None:  # the same causal filter image_source_rir applies
-        h = signal.sosfilt(signal.butter(2, highpass_hz, btype="highpass", fs=fs, output="sos"), h, axis=-1)
+        h = highpass(h, highpass_hz, fs)
     return h
 
 

@@ -168,12 +168,14 @@ def scattered_energy(dims_m, reflection, scattering, n_taps: int, *, fs: int, c:
 
 
 def scattered_tail(dims_m, reflection, scattering, mics_m, *, n_taps: int, fs: int, c: float, t0_s: float,
-                   rng, noise=None) -> np.ndarray:
+                   rng, noise=None, energy=None) -> np.ndarray:
     """The scattered part ``(n_bands, n_mics, n_taps)``: diffuse-coherent noise x sqrt(expected energy).
 
-    ``noise`` ``(n_mics, n_taps)``: the coherent-noise realisation, else drawn from ``rng``.
+    ``noise`` ``(n_mics, n_taps)``: the coherent-noise realisation, else drawn from ``rng``;
+    ``energy`` ``(n_bands, n_taps)``: :func:`scattered_energy` of these arguments, if already known.
     """
-    env2 = scattered_energy(dims_m, reflection, scattering, n_taps, fs=fs, c=c, t0_s=t0_s)
+    env2 = scattered_energy(dims_m, reflection, scattering, n_taps, fs=fs, c=c, t0_s=t0_s) if energy is None \
+        else energy
     if noise is None:
         noise = coherent_noise(mics_m, n_taps, fs=fs, c=c, rng=rng)
     return noise[None, :, :] * np.sqrt(env2)[:, None, :]
