@@ -3,7 +3,7 @@
     python -m benchmarks.perf.wpe_reverb --data-dir ../shared/data [--rt60 0.6 0.9] [--seeds 3] [--seconds 8]
 
 A scene like the ``reverb`` preset's (5 x 4 x 2.8 m, calibrated RT60, talker 1 m at 45 deg,
-point noise 1.5 m at 200 deg at 10 dB, ideal sensors; CMU ARCTIC speech, seeded noise).  Each
+point noise 1.5 m at 200 deg at ``--snr`` dB, ideal sensors; CMU ARCTIC speech, seeded noise).  Each
 replayable system is scored two ways:
 
 * **parts replayed** (what ``benchmarks.metrics.reverb`` stores): the input's direct+early and
@@ -57,11 +57,11 @@ def _speech(data_dir: Path, seed: int, seconds: float) -> np.ndarray:
     return 0.05 * s / np.sqrt(np.mean(s**2))
 
 
-def _scene(rt60: float, seed: int, s: np.ndarray):
+def _scene(rt60: float, seed: int, s: np.ndarray, snr_db: float = 10.0):
     scene = Scene(fs=FS, pair=MicPair((2.0, 1.8, 0.9), axis_azimuth_deg=90.0, spacing_m=0.0214),
                   room=ShoeBox((5.0, 4.0, 2.8), rt60_s=rt60), speech=SourcePlacement(45.0, 1.0),
                   noises=(NoiseSource(azimuth_deg=200.0, distance_m=1.5),), far_field=False,
-                  reference="early50", snr_db=10.0)
+                  reference="early50", snr_db=snr_db)
     noise = np.random.default_rng(seed).standard_normal(s.size)
     images = render_images(scene, s, [noise])
     return images, speech_parts(images, s)
@@ -125,17 +125,18 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--seconds", type=float, default=8.0)
     ap.add_argument("--systems", nargs="+", default=list(SYSTEMS))
+    ap.add_argument("--snr", type=float, default=10.0, help="point noise level re the speech (dB)")
     args = ap.parse_args(argv)
     keys = ("srmr", "c50_parts", "c50_eff", "c50_eff_speech", "sinr_parts", "sinr_eff", "noise_out")
     print(f"WPE scored two ways, mean over {args.seeds} seeds, {args.seconds:g} s of CMU ARCTIC speech, "
-          "point noise at 10 dB")
+          f"point noise at {args.snr:g} dB")
     print("| RT60 (s) | system | " + " | ".join(keys) + " |")
     print("| ---: | --- |" + " ---: |" * len(keys))
     for rt60 in args.rt60:
         rows = {name: [] for name in args.systems}
         for seed in range(args.seeds):
             s = _speech(args.data_dir, seed, args.seconds)
-            images, parts = _scene(rt60, seed, s)
+            images, parts = _scene(rt60, seed, s, args.snr)
             for name in args.systems:
                 rows[name].append(_score(name, images, parts, s))
         for name in args.systems:
