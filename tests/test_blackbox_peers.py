@@ -1,4 +1,4 @@
-"""Black-box peers (webrtc-ns, rnnoise) and their frame-buffering base.
+"""Black-box peers (webrtc-ns, rnnoise), their frame-buffering base and the 16 <-> 48 kHz resampler.
 
 The peers' tests skip with a reason when the optional package is absent; the base's tests
 (a frame-identity toy) and the "not installed" listing always run.
