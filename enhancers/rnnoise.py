@@ -8,8 +8,9 @@ handle ``pyrnnoise.rnnoise.lib``): pyrnnoise's own file/stream helpers are not u
 RNNoise runs at 48 kHz on 10 ms frames (480 samples) of float samples in int16 units.
 This wrapper takes 16 kHz audio: each 10 ms frame (160 samples) is upsampled by 3
 (zero-stuffing and a 97-tap linear-phase low-pass, 7.6 kHz cutoff, Kaiser beta 8),
-denoised, low-pass filtered by the same FIR and decimated by 3.  Both filters keep their
-state across frames (``scipy.signal.lfilter`` with ``zi``), so the resampling streams.
+denoised, low-pass filtered by the same FIR and decimated by 3
+(:class:`enhancers.blackbox.Resampler16to48`, polyphase; both filters keep their state
+across frames, so the resampling streams).
 
 Latency (declared in ``tags``): 159 samples of frame buffering + 32 (the two FIRs, 2 x 48
 samples at 48 kHz) + 320 (RNNoise's own delay, 20 ms: measured, the output's
@@ -32,17 +33,21 @@ import numpy as np
 from pyrnnoise.rnnoise import lib as _lib
 
 from enhancers.base import Params
-from enhancers.blackbox import INT16_SCALE, FramedBlackBox, Resampler16to48, to_int16_scale
+from enhancers.blackbox import INT16_SCALE, FramedBlackBox, Resampler16to48
 
 __all__ = ["RNNoise"]
 
 
 class _Engine:
-    """One RNNoise stream: the C state and the two resampling filters' states."""
+    """One RNNoise stream: the C state, the two resampling filters' states and the 48 kHz buffers (made once)."""
 
     def __init__(self):
         self.handle = _lib.rnnoise_create(None)
         self.resampler = Resampler16to48()
+        self.buf_in = np.zeros(3 * 160, dtype=np.float32)
+        self.buf_out = np.zeros(3 * 160, dtype=np.float32)
+        self.ptr_in = self.buf_in.ctypes.data_as(ctypes.POINTER(ctypes.c_float))
+        self.ptr_out = self.buf_out.ctypes.data_as(ctypes.POINTER(ctypes.c_float))
 
     def __del__(self):
         handle, self.handle = getattr(self, "handle", None), None
@@ -50,11 +55,10 @@ class _Engine:
             _lib.rnnoise_destroy(handle)
 
     def frame(self, x16: np.ndarray) -> np.ndarray:
-        buf_in = np.ascontiguousarray(to_int16_scale(self.resampler.up(x16)), dtype=np.float32)
-        buf_out = np.empty_like(buf_in)
-        ptr = ctypes.POINTER(ctypes.c_float)
-        _lib.rnnoise_process_frame(self.handle, buf_out.ctypes.data_as(ptr), buf_in.ctypes.data_as(ptr))
-        return self.resampler.down(buf_out.astype(np.float64) / INT16_SCALE)
+        """``(160,)`` float64 full scale at 16 kHz -> the same; RNNoise takes int16 units, clipped."""
+        self.resampler.up_into(x16, self.buf_in, INT16_SCALE, -INT16_SCALE, INT16_SCALE - 1.0)
+        _lib.rnnoise_process_frame(self.handle, self.ptr_out, self.ptr_in)
+        return self.resampler.down(self.buf_out, 1.0 / INT16_SCALE)
 
 
 class RNNoise(FramedBlackBox):

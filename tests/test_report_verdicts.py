@@ -13,7 +13,7 @@ from scipy import stats
 from benchmarks.report.core import write_report
 from benchmarks.report.html import markdown_to_html
 from benchmarks.report.tables import MIN_T_SEEDS, aggregate, metric_range, stat_cell
-from benchmarks.report.verdicts import diff_cell, paired_verdicts, rank_tiers
+from benchmarks.report.verdicts import diff_cell, paired_verdicts, rank_tiers, verdicts_section
 from benchmarks.run.sweep import load_sweep, stratified
 
 
@@ -93,6 +93,26 @@ def test_ranking_rule_pesq_then_stoi_then_snr_i_with_tiers_and_marks():
     assert [r["enhancer"] for r in ranked] == ["bb", "c", "b", "a"]
     assert [r["tier"] for r in ranked] == [1, 2, 2, 3]  # b and c overlap in PESQ: one tier
     assert ranked[0]["black_box"] and not ranked[1]["black_box"] and ranked[2]["flagged"] == 5
+
+
+def test_ranking_shows_dnsmos_columns_only_when_the_rows_have_them(tmp_path):
+    """Opted-in DNSMOS (``metrics = ["dnsmos"]``) appears beside the ranked metrics as the seeds'
+    mean (min … max) -- oracle: numpy over the per-seed means -- and in ranking.csv; not ranked on
+    (the order stays the PESQ order); absent columns add nothing."""
+    rows = _rows(n_seeds=3)
+    lines, _ = verdicts_section(rows, tmp_path)
+    assert not any("DNSMOS" in line for line in lines)
+    for r in rows:
+        r["dnsmos_ovrl"] = {"passthrough": 3.5, "ss": 2.0, "eb": 1.0}[r["enhancer"]] + 0.1 * r["seed"]
+    text = "\n".join(verdicts_section(rows, tmp_path)[0])
+    ranking = text[text.index("### Ranking"):].splitlines()
+    head = next(line for line in ranking if line.startswith("| tier"))
+    assert head.endswith("| SNR-I (dB) | DNSMOS OVRL | n seeds |") and "DNSMOS SIG" not in head
+    order = [line.split(" | ")[1] for line in ranking if line.startswith("| ") and line.split(" | ")[0][2:].isdigit()]
+    assert order[-1] == "`passthrough`"  # lowest PESQ, highest DNSMOS: ranked by PESQ
+    eb = next(line for line in ranking if "| `eb` |" in line)
+    assert eb.split(" | ")[-2] == f"{np.mean([1.0, 1.1, 1.2]):.2f} (1.00 … 1.20)"
+    assert "dnsmos_ovrl_lo" in (tmp_path / "ranking.csv").read_text().splitlines()[0]
 
 
 def test_report_has_contents_verdicts_and_resolving_links(tmp_path):

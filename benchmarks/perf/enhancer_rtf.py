@@ -12,7 +12,8 @@ one warm-up run (which also fills the calibration caches).  Targets (issue 3): b
 <= 0.005, streaming RTF <= 0.05 (issue 12: batch RTF of ``eb-robust-ss`` <= 0.01); issue 20:
 streaming CPU RTF <= 0.05 for every built-in system and streaming <= 5x batch (CPU) for the
 same enhancer -- judged on CPU time, which a loaded machine inflates far less than wall time;
-issue 19: the learned ``dfn3`` streams at <= 0.2 on one core; ``wpe`` is offline, no streaming.
+issue 19: the learned ``dfn3`` streams at <= 0.2 on one core (with ``dfn3`` a last line gives its C
+library alone and its model load, see ``benchmarks.perf.dfn3_rtf``); ``wpe`` is offline, no streaming.
 The peer column is a numpy ``rfft``/``irfft`` round trip
 of the same audio timed in the same process, so a slow or busy machine shows as a large
 peer time too (timings on a shared 2-core machine are noisy).
@@ -143,7 +144,20 @@ def main(argv=None) -> int:
               f"| {r['stream_cpu']:.4f} | {over:.1f} | {ok_b} | {ok_s} | {ok_r} |")
     print("\n(the batch target judges the wall-clock median; the streaming targets judge CPU time, "
           "robust to a busy machine)")
+    if any(name == "dfn3" for name, _ in names):
+        _print_dfn3_parts(args.seconds, args.runs)
     return 0
+
+
+def _print_dfn3_parts(seconds: float, runs: int) -> None:
+    """The C library alone and the model load, on the same audio (``benchmarks.perf.dfn3_rtf``)."""
+    from benchmarks.perf.dfn3_rtf import library_alone
+
+    lib = library_alone(_signal(seconds, 1)[0], runs)
+    print(f"dfn3: C library alone (df_process_frame on pre-made 48 kHz frames) CPU RTF {lib['cpu_rtf']:.4f}, "
+          f"calling thread {lib['thread_rtf']:.4f}, threads {lib['threads_before']} -> {lib['threads_after']}; "
+          f"df_create {lib['create_cpu_s']:.3f} s CPU per stream (inside both dfn3 columns, "
+          f"{lib['create_cpu_s'] / seconds:.3f} of the RTF at {seconds:g} s)")
 
 
 if __name__ == "__main__":

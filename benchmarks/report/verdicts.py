@@ -194,15 +194,29 @@ def _verdict_tables(recs: Sequence[dict]) -> list[str]:
     return lines
 
 
-def _ranking_tables(ok: Sequence[dict], flagged) -> tuple[list[str], list[dict]]:
+#: Shown beside the ranking when the rows have them (a sweep's ``metrics = ["dnsmos"]``); not ranked on.
+SHOWN_METRICS = {"dnsmos_ovrl": "DNSMOS OVRL", "dnsmos_sig": "DNSMOS SIG", "dnsmos_bak": "DNSMOS BAK"}
+
+
+def _add_shown(rec: dict[str, Any], rows: Sequence[dict], fields: Sequence[str]) -> dict[str, Any]:
+    """``rec`` with ``field``, ``field_lo``, ``field_hi`` (seed interval) of each of ``fields``."""
+    for f in fields:
+        rec[f], rec[f + "_lo"], rec[f + "_hi"] = seed_interval(seed_means(rows, f), f)
+    return rec
+
+
+def _ranking_tables(ok: Sequence[dict], flagged, shown: Sequence[str]) -> tuple[list[str], list[dict]]:
+    """One ranking table per noise, with the ``shown`` columns (of :data:`SHOWN_METRICS`) after the ranked ones."""
     lines, records = [], []
     for noise in sorted({str(r["noise"]) for r in ok}):
-        ranked = rank_tiers([r for r in ok if str(r["noise"]) == noise], flagged=flagged)
+        mine = [r for r in ok if str(r["noise"]) == noise]
+        ranked = [_add_shown(r, [x for x in mine if x["enhancer"] == r["enhancer"]], shown)
+                  for r in rank_tiers(mine, flagged=flagged)]
         records += [{**r, "noise": noise} for r in ranked]
-        body = [[str(r["tier"]), system_mark(r), *(ranking_cell(r, f) for f in VERDICT_METRICS), str(r["n"])]
-                for r in ranked]  # fmt: skip
-        lines += [f"**{noise}**", "",
-                  markdown_table(["tier", "system", "PESQ out raw", "STOI out", "SNR-I (dB)", "n seeds"], body), ""]  # fmt: skip
+        body = [[str(r["tier"]), system_mark(r), *(ranking_cell(r, f) for f in (*VERDICT_METRICS, *shown)),
+                 str(r["n"])] for r in ranked]  # fmt: skip
+        head = ["tier", "system", "PESQ out raw", "STOI out", "SNR-I (dB)", *(SHOWN_METRICS[f] for f in shown)]
+        lines += [f"**{noise}**", "", markdown_table([*head, "n seeds"], body), ""]
     return lines, records
 
 
@@ -211,12 +225,14 @@ def verdicts_section(ok: Sequence[dict], report_dir: Path, *, flagged=lambda r: 
     recs = paired_verdicts(ok)
     if not recs:
         return [], []
-    rank_lines, ranked = _ranking_tables(ok, flagged)
+    shown = [f for f in SHOWN_METRICS if any(num(r.get(f)) is not None for r in ok)]  # DNSMOS when opted in
+    rank_lines, ranked = _ranking_tables(ok, flagged, shown)
     paths = [
         write_csv(report_dir / "verdicts.csv", recs, ["noise", "baseline", "system", "metric", "n", "mean_diff",
                                                       "ci_low", "ci_high", "min_diff", "max_diff", "verdict"]),
         write_csv(report_dir / "ranking.csv", ranked, ["noise", "tier", "enhancer", "n", "black_box", "flagged",
-                                                       *(x for f in VERDICT_METRICS for x in (f, f + "_lo", f + "_hi"))]),
+                                                       *(x for f in (*VERDICT_METRICS, *shown)
+                                                         for x in (f, f + "_lo", f + "_hi"))]),
     ]  # fmt: skip
     n = max(r["n"] for r in recs)
     lines = [
@@ -232,12 +248,13 @@ def verdicts_section(ok: Sequence[dict], report_dir: Path, *, flagged=lambda r: 
         *_verdict_tables(recs),
         "### Ranking",
         "",
-        f"Rule: {RANKING_RULE}.",
+        f"Rule: {RANKING_RULE}." + (" DNSMOS P.835 (non-intrusive, first output channel) is shown, "
+                                    "not ranked on." if shown else ""),
         "",
         *rank_lines,
     ]
     return lines, paths
 
 
-__all__ = ["BASELINES", "RANKING_RULE", "VERDICT_METRICS", "diff_cell", "paired_verdicts", "rank_tiers",
+__all__ = ["BASELINES", "RANKING_RULE", "SHOWN_METRICS", "VERDICT_METRICS", "diff_cell", "paired_verdicts", "rank_tiers",
            "ranking_cell", "system_mark", "verdict", "verdicts_section"]
