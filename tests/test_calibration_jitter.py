@@ -34,3 +34,17 @@ def test_a_quantity_not_adapted_is_absent_and_a_fixed_one_does_not_jitter(condit
     d = swap_jitter(condition, None, {"calibrate": False, "das_mix": False, "adapt_gate_db": -60.0})
     assert set(d) == {"all", "beta"}
     assert d["all"] < -200 or math.isinf(d["all"])
+
+
+def test_ss_floor_keeps_only_conditions_with_an_identical_front_end():
+    """Hand-built rows: ``eb-robust-ss``'s jitter is kept where ``eb-robust``'s is below -100 dB in the same
+    condition and the input SNR is >= 15 dB, nowhere else."""
+    from benchmarks.perf.calibration_jitter import ss_floor
+
+    def row(system, snr, seed, jitter):
+        return dict(system=system, noise="wind", snr=snr, seed=seed, jitter=jitter)
+
+    rows = [row("eb-robust", 15, 0, -300.0), row("eb-robust-ss", 15, 0, -21.0),   # kept
+            row("eb-robust", 15, 1, -40.0), row("eb-robust-ss", 15, 1, -25.0),    # front end differs
+            row("eb-robust", 10, 0, -300.0), row("eb-robust-ss", 10, 0, -12.0)]   # below 15 dB
+    assert ss_floor(rows) == {"wind": [-21.0]}

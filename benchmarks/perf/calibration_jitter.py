@@ -30,7 +30,9 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
    after 8 s, speech 45 deg, babble at 135 / 240 deg or diffuse, wind; ideal minus 1 dB / 5 deg
    rear mic) for ``eb-robust`` (target <= 2 dB at 135, 240 deg and diffuse).
 
-5. with ``--decompose``: for every ``eb-robust`` row above -30 dB, the jitter when only one adapted
+5. ``ss``'s own jitter (:func:`ss_floor`): ``eb-robust-ss``'s in the conditions where ``eb-robust``'s front
+   end is the same operation in both runs -- the part no calibration can remove;
+6. with ``--decompose``: for every ``eb-robust`` row above -30 dB, the jitter when only one adapted
    quantity differs between the runs (``r_hat``, ``beta`` with the EQ it sets, ``alpha``):
    :func:`swap_jitter`.
 
@@ -160,6 +162,27 @@ def per_noise_means(rows) -> dict[str, float]:
     return {f"{s}/{nz}": float(np.mean([r["replay"] for r in g])) for (s, nz), g in sorted(_group(rows, "system", "noise").items())}
 
 
+def ss_floor(rows) -> dict[str, list[float]]:
+    """Per noise, ``eb-robust-ss``'s jitter (input SNR >= 15 dB) in the conditions where ``eb-robust``'s is
+    below -100 dB: there the front end is the same operation in both runs, so what remains is ``ss``'s own
+    (its gain follows the mixture, ``|s + n|`` in one run and ``|s - n|`` in the other)."""
+    fixed = {(r["noise"], r["snr"], r["seed"]) for r in rows if r["system"] == "eb-robust" and r["jitter"] < -100}
+    out = defaultdict(list)
+    for r in rows:
+        if r["system"] == "eb-robust-ss" and r["snr"] >= 15 and (r["noise"], r["snr"], r["seed"]) in fixed:
+            out[r["noise"]].append(r["jitter"])
+    return dict(out)
+
+
+def print_ss_floor(rows) -> None:
+    floor = ss_floor(rows)
+    if floor:
+        print("\nss's own jitter: eb-robust-ss where eb-robust's front end is identical in both runs (jitter < -100 dB)\n")
+        print("| noise | rows | worst | median | above -30 dB |\n| --- | ---: | ---: | ---: | ---: |")
+        for noise, j in sorted(floor.items()):
+            print(f"| {noise} | {len(j)} | {max(j):.1f} | {np.median(j):.1f} | {sum(x > -30 for x in j)} |")
+
+
 def print_tables(rows, baseline: dict | None) -> None:
     print("\nspeech_jitter_db (max / mean over seeds); target <= -30 dB for eb-robust-ss at input SNR >= 15 dB\n")
     print("| system | noise | " + " | ".join(f"{snr:g} dB" for snr in sorted({r['snr'] for r in rows})) + " |")
@@ -173,6 +196,7 @@ def print_tables(rows, baseline: dict | None) -> None:
     hi = [r["jitter"] for r in rows if r["system"] == "eb-robust-ss" and r["snr"] >= 15]
     if hi:
         print(f"\neb-robust-ss worst jitter at >= 15 dB: {max(hi):.1f} dB ({sum(j > -30 for j in hi)} of {len(hi)} rows above -30 dB)")
+    print_ss_floor(rows)
     print(f"\nreplay vs Hagerman SNR-I within {AGREE_DB:g} dB (target >= 95 % for eb-robust-ss)\n")
     print("| system | rows within | max abs diff (dB) |\n| --- | ---: | ---: |")
     for (sysname,), g in sorted(_group(rows, "system").items()):
