@@ -141,6 +141,41 @@ lets the talker back in (``ramp_frames=0``: jitter -11 dB), and whatever freezes
 calibration in ``phone``'s 6-s factory (one plane wave whose own level swings trip the rule) costs
 it 1.5-6 dB of SNR-I; so the mode stays opt-in.
 
+Calibrated direction rule (issue 16, third round; off by default: ``cal_frontal_db=None``).  A
+direction test that works at every input level: the forward/backward cardioid ratio of the
+*calibrated* pair (rear / the estimate applied at the start of each chunk of ``cal_chunk`` = 8
+frames, counted from the stream start), per bin from the bins :data:`LEVEL_NEAR` away
+(``level_scope="bin"``; ``"band"``: over ``fit_band_hz`` without the bin, and the level rule is then
+per bin too), smoothed like the other rules; it fires where the ratio exceeds ``cal_frontal_db``
+(absolute: a diffuse field is 0 dB, a rear source below, the talker at 45 deg ~15 dB).  The
+uncalibrated ratio cannot do this at low frequencies: the mismatch fills the backward null there
+(tests: a 45 deg source fires in 0 % of the 200-500 Hz cells uncalibrated, 100 % calibrated).  Its
+firings stop the averages only, or (``cal_frontal_beam``) join the level rule's mask (hold, look
+ahead, and beta / the DAS weight per ``beam_freeze``).
+
+Measured (``python -m benchmarks.perf.calibration_jitter --direction --seeds 5 --snrs 15 20 25``, 60
+conditions; load ~8 on 2 cores), ``cal_frontal_db=-2`` (:data:`benchmarks.perf.calibration_jitter.DIRECTION`):
+built-in data, ``eb-robust-ss`` jitter at >= 15 dB worst -9.9 dB (26 of 60 rows above -30; the
+default 60 of 60), replay = Hagerman within 3 dB on 95 % (default 47 %), SNR-I vs the default babble
+-0.2, factory -2.1, factory-hall +0.1, wind -12.2 dB; mismatch loss (2 seeds) 5.1 / 0.3 / -1.6 dB at
+135 / 240 deg / diffuse.  On ``../shared/data`` (real speech): worst -2.6 dB, 48 of 60 above -30,
+agreement 90 %, wind -11.2 dB.  Why it fails: a 6-bin ratio of diffuse or incoherent noise
+fluctuates by ~+-2 dB, so a threshold low enough to catch a talker cell at -5 to -10 dB local SNR
+freezes almost every noise cell (white diffuse noise: 99 %) -- nothing is learned there, and in
+wind beta and the DAS weight stay at their priors (hence wind's -12 dB); a higher threshold (0,
++1, +3 dB) lets the talker back in (worst -5 to -12 dB).  Smoothing the ratio longer
+(``gate_lam_cal=0.9``) or adding the rule to the level rule of :data:`TALKER_BLIND` changes nothing
+measurable.  So the rule stays opt-in, and no setting meets every target.
+
+What no calibration can remove: ``eb-robust-ss``'s ``ss`` stage has a gain that follows the mixture
+(``|s + n|`` in one run, ``|s - n|`` in the other), so even with a front end that is the same
+operation in both runs (``calibrate=False``, ``das_mix=False``, beta frozen by ``adapt_gate_db=-60``)
+``eb-robust-ss``'s jitter in ``phone``'s wind is -16.7 dB worst, all 15 wind rows at >= 15 dB above
+-30 dB, babble 3 of 15 (built-in data, 5 seeds); and in the rows where ``eb-robust``'s own jitter is
+below -100 dB (its adaptation identical in both runs) ``eb-robust-ss``'s is still up to -20.9 dB in
+wind (``calibration_jitter``'s "ss's own jitter" table).  The -30 dB target on ``eb-robust-ss``
+needs a talker-blind ``ss`` gain as well.
+
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
 without the level rule's look ahead: the mask beta and the DAS weight use).
@@ -655,6 +690,8 @@ class MicCalibration(StftEnhancer):
     freeze_level_db, level_band_hz, level_floor_s, level_hang_s, level_ahead_s, ramp_frames : the
         talker-blind mode (module docstring; None / 200-7000 Hz / 3 s / 0.1 s / 0.1 s / 0: off).
     level_floor_lam, level_frontal_db, beam_freeze : its variants (None / None / ``"both"``).
+    cal_frontal_db, level_scope, cal_frontal_beam, cal_chunk : the calibrated direction rule (module
+        docstring; None: off / ``"band"`` / False / 8 frames).
 
     Examples
     --------
