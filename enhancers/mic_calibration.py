@@ -145,8 +145,8 @@ Calibrated direction rule (issue 16, third round; off by default: ``cal_frontal_
 direction test that works at every input level: the forward/backward cardioid ratio of the
 *calibrated* pair (rear / the estimate applied at the start of each chunk of ``cal_chunk`` = 8
 frames, counted from the stream start), per bin from the bins :data:`LEVEL_NEAR` away
-(``level_scope="bin"``; ``"band"``: over ``fit_band_hz`` without the bin, and the level rule is then
-per bin too), smoothed like the other rules; it fires where the ratio exceeds ``cal_frontal_db``
+(``level_scope="bin"``, which makes the level rule per bin too; ``"band"``: over ``fit_band_hz``
+without the bin and its neighbours), smoothed like the other rules; it fires where the ratio exceeds ``cal_frontal_db``
 (absolute: a diffuse field is 0 dB, a rear source below, the talker at 45 deg ~15 dB).  The
 uncalibrated ratio cannot do this at low frequencies: the mismatch fills the backward null there
 (tests: a 45 deg source fires in 0 % of the 200-500 Hz cells uncalibrated, 100 % calibrated).  Its
