@@ -168,13 +168,14 @@ wind beta and the DAS weight stay at their priors (hence wind's -12 dB); a highe
 measurable.  So the rule stays opt-in, and no setting meets every target.
 
 What no calibration can remove: ``eb-robust-ss``'s ``ss`` stage has a gain that follows the mixture
-(``|s + n|`` in one run, ``|s - n|`` in the other), so even with a front end that is the same
-operation in both runs (``calibrate=False``, ``das_mix=False``, beta frozen by ``adapt_gate_db=-60``)
-``eb-robust-ss``'s jitter in ``phone``'s wind is -16.7 dB worst, all 15 wind rows at >= 15 dB above
--30 dB, babble 3 of 15 (built-in data, 5 seeds); and in the rows where ``eb-robust``'s own jitter is
-below -100 dB (its adaptation identical in both runs) ``eb-robust-ss``'s is still up to -20.9 dB in
-wind (``calibration_jitter``'s "ss's own jitter" table).  The -30 dB target on ``eb-robust-ss``
-needs a talker-blind ``ss`` gain as well.
+(``|s + n|`` in one run, ``|s - n|`` in the other), so it jitters by itself, the more the lower the SNR
+it sees.  With a front end that is the same operation in both runs (``calibrate=False``, beta frozen by
+``adapt_gate_db=-60``; ``calibration_jitter``'s "ss's own jitter" table, built-in data, 5 seeds, 15-25
+dB): the DAS path (``mix_alpha0=1``, frozen at that prior) leaves babble up to -25.5 dB (5 of 15 rows
+above -30, all at 15 dB; its babble SNR-I 0.2 dB, the default's 1.8) and wind -31.6 dB (none; its wind
+SNR-I 6.9 dB, the default's 6.3); the differential path alone (``das_mix=False``) babble -27.3 (3 of
+15) and wind -16.7 dB (15 of 15: its wind SNR-I is -12 dB).  So at 15 dB in babble the -30 dB target
+on ``eb-robust-ss`` needs a talker-blind ``ss`` gain as well, whatever the calibration does.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
