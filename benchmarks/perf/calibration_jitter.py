@@ -31,7 +31,8 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
    rear mic) for ``eb-robust`` (target <= 2 dB at 135, 240 deg and diffuse).
 
 5. ``ss``'s own jitter (:func:`ss_floor`): ``eb-robust-ss``'s in the conditions where ``eb-robust``'s front
-   end is the same operation in both runs -- the part no calibration can remove;
+   end is the same operation in both runs -- the part no calibration can remove (every row, with a fixed
+   front end: ``--set calibrate=false adapt_gate_db=-60 mix_alpha0=1.0``, the DAS path frozen at its prior);
 6. with ``--decompose``: for every ``eb-robust`` row above -30 dB, the jitter when only one adapted
    quantity differs between the runs (``r_hat``, ``beta`` with the EQ it sets, ``alpha``):
    :func:`swap_jitter`.
