@@ -174,7 +174,9 @@ it sees.  With a front end that is the same operation in both runs (``calibrate=
 dB): the DAS path (``mix_alpha0=1``, frozen at that prior) leaves babble up to -25.5 dB (5 of 15 rows
 above -30, all at 15 dB; its babble SNR-I 0.2 dB, the default's 1.8) and wind -31.6 dB (none; its wind
 SNR-I 6.9 dB, the default's 6.3); the differential path alone (``das_mix=False``) babble -27.3 (3 of
-15) and wind -16.7 dB (15 of 15: its wind SNR-I is -12 dB).  So at 15 dB in babble the -30 dB target
+15) and wind -16.7 dB (15 of 15: its wind SNR-I is -12 dB).  On ``../shared/data`` the DAS front end
+leaves babble -27.1 (5 of 15), factory-hall -28.2 (3 of 15), wind -31.5 dB (none).  So at 15 dB in
+babble (and the hall) the -30 dB target
 on ``eb-robust-ss`` needs a talker-blind ``ss`` gain as well, whatever the calibration does.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
