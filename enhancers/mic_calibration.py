@@ -141,6 +141,44 @@ lets the talker back in (``ramp_frames=0``: jitter -11 dB), and whatever freezes
 calibration in ``phone``'s 6-s factory (one plane wave whose own level swings trip the rule) costs
 it 1.5-6 dB of SNR-I; so the mode stays opt-in.
 
+Calibrated direction rule (issue 16, third round; off by default: ``cal_frontal_db=None``).  A
+direction test that works at every input level: the forward/backward cardioid ratio of the
+*calibrated* pair (rear / the estimate applied at the start of each chunk of ``cal_chunk`` = 8
+frames, counted from the stream start), per bin from the bins :data:`LEVEL_NEAR` away
+(``level_scope="bin"``, which makes the level rule per bin too; ``"band"``: over ``fit_band_hz``
+without the bin and its neighbours), smoothed like the other rules; it fires where the ratio exceeds ``cal_frontal_db``
+(absolute: a diffuse field is 0 dB, a rear source below, the talker at 45 deg ~15 dB).  The
+uncalibrated ratio cannot do this at low frequencies: the mismatch fills the backward null there
+(tests: a 45 deg source fires in 0 % of the 200-500 Hz cells uncalibrated, 100 % calibrated).  Its
+firings stop the averages only, or (``cal_frontal_beam``) join the level rule's mask (hold, look
+ahead, and beta / the DAS weight per ``beam_freeze``).
+
+Measured (``python -m benchmarks.perf.calibration_jitter --direction --seeds 5 --snrs 15 20 25``, 60
+conditions; load ~8 on 2 cores), ``cal_frontal_db=-2`` (:data:`benchmarks.perf.calibration_jitter.DIRECTION`):
+built-in data, ``eb-robust-ss`` jitter at >= 15 dB worst -9.9 dB (26 of 60 rows above -30; the
+default 60 of 60), replay = Hagerman within 3 dB on 95 % (default 47 %), SNR-I vs the default babble
+-0.2, factory -2.1, factory-hall +0.1, wind -12.2 dB; mismatch loss (2 seeds) 5.1 / 0.3 / -1.6 dB at
+135 / 240 deg / diffuse.  On ``../shared/data`` (real speech): worst -2.6 dB, 48 of 60 above -30,
+agreement 90 %, wind -11.2 dB.  Why it fails: a 6-bin ratio of diffuse or incoherent noise
+fluctuates by ~+-2 dB, so a threshold low enough to catch a talker cell at -5 to -10 dB local SNR
+freezes almost every noise cell (white diffuse noise: 99 %) -- nothing is learned there, and in
+wind beta and the DAS weight stay at their priors (hence wind's -12 dB); a higher threshold (0,
++1, +3 dB) lets the talker back in (worst -5 to -12 dB).  Smoothing the ratio longer
+(``gate_lam_cal=0.9``) or adding the rule to the level rule of :data:`TALKER_BLIND` changes nothing
+measurable.  So the rule stays opt-in, and no setting meets every target.
+
+What no calibration can remove: ``eb-robust-ss``'s ``ss`` stage has a gain that follows the mixture
+(``|s + n|`` in one run, ``|s - n|`` in the other), so it jitters by itself, the more the lower the SNR
+it sees.  With a front end that is the same operation in both runs (``calibrate=False``, beta frozen by
+``adapt_gate_db=-60``; ``calibration_jitter``'s "ss's own jitter" table, built-in data, 5 seeds, 15-25
+dB): the DAS path (``mix_alpha0=1``, frozen at that prior) leaves babble up to -25.5 dB (5 of 15 rows
+above -30, all at 15 dB; its babble SNR-I 0.2 dB, the default's 1.8) and wind -31.6 dB (none; its wind
+SNR-I 6.9 dB, the default's 6.3); the differential path alone (``das_mix=False``) babble -27.3 (3 of
+15) and wind -16.7 dB (15 of 15: its wind SNR-I is -12 dB).  On ``../shared/data`` the DAS front end
+leaves babble -27.1 (5 of 15), factory-hall -28.2 (3 of 15), wind -31.5 dB (none).  So at 15 dB in
+babble (and the hall) the -30 dB target
+on ``eb-robust-ss`` needs a talker-blind ``ss`` gain as well, whatever the calibration does.
+
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
 without the level rule's look ahead: the mask beta and the DAS weight use).
@@ -175,6 +213,11 @@ __all__ = ["CalibrationState", "MicCalibration", "calibration_step"]
 # (beta always has its own gate too): "both": beta and DAS on the cardioid and level rules;
 # "cardioid": beta on its gate only, DAS on the cardioid rules; "level": beta on the level rule, DAS on both
 BEAM_FREEZE = ("both", "cardioid", "level")
+# where the talker-blind level rule (and its frontal condition) measure: the whole level band per
+# frame ("band"), or per bin from its neighbours LEVEL_NEAR bins away ("bin": a talker-free bin of a
+# talker frame still learns -- speech is sparse in time and frequency)
+LEVEL_SCOPE = ("band", "bin")
+LEVEL_NEAR = (-4, -3, -2, 2, 3, 4)
 
 
 @dataclass(frozen=True)
@@ -194,6 +237,8 @@ class CalibrationState:
     pend_x: np.ndarray       # complex (D, 3, K): the last D frames' products, not yet averaged
     pend_card: np.ndarray    # bool (D, K): their cardioid-rule decisions
     pend_loud: np.ndarray    # bool (D, K): their level-rule firings
+    q_cal: GateState         # the calibrated direction rule's smoothed cardioid powers
+    r_dir: np.ndarray        # complex (K,) the estimate that rule uses (the last chunk start's)
 
 
 @dataclass(frozen=True)
@@ -224,6 +269,15 @@ class CalibrationParams(StftParams):
     ramp_frames: float = 0.0
     ramp_over_band: bool = False
     beam_freeze: str = "both"
+    level_scope: str = "band"
+    cal_frontal_db: float | None = None
+    cal_chunk: int = 8
+    cal_frontal_beam: bool = False
+
+    @property
+    def talker_blind(self) -> bool:
+        """True when a level or calibrated-direction rule (the talker-blind mode, issue 16) is on."""
+        return self.freeze_level_db is not None or self.cal_frontal_db is not None
 
     def _check_calibration(self):
         self._check_stft()
@@ -255,6 +309,13 @@ class CalibrationParams(StftParams):
         check_range("ramp_frames", self.ramp_frames, 0.0, 1e6)
         if not isinstance(self.ramp_over_band, bool):
             raise ParameterError("ramp_over_band", self.ramp_over_band, "True or False")
+        if self.cal_frontal_db is not None:
+            check_range("cal_frontal_db", self.cal_frontal_db, -60.0, 60.0)
+        check_int("cal_chunk", self.cal_chunk, minimum=1, maximum=10000)
+        if not isinstance(self.cal_frontal_beam, bool):
+            raise ParameterError("cal_frontal_beam", self.cal_frontal_beam, "True or False")
+        if self.level_scope not in LEVEL_SCOPE:
+            raise ParameterError("level_scope", self.level_scope, " or ".join(map(repr, LEVEL_SCOPE)))
         if self.beam_freeze not in BEAM_FREEZE:
             raise ParameterError("beam_freeze", self.beam_freeze, " or ".join(map(repr, BEAM_FREEZE)))
 
@@ -273,7 +334,8 @@ def calibration_init(n_bins: int) -> CalibrationState:
                             n_frames=0, counts=np.zeros(n_bins), q_bin=gate_init(n_bins),
                             q_band=gate_init(n_bins), q_level=GateState(pf=np.zeros(n_bins), pb=ones), q_front=gate_init(n_bins),
                             last_loud=np.full(n_bins, -(10**9)), pend_x=np.zeros((0, 3, n_bins), dtype=complex),
-                            pend_card=np.zeros((0, n_bins), dtype=bool), pend_loud=np.zeros((0, n_bins), dtype=bool))
+                            pend_card=np.zeros((0, n_bins), dtype=bool), pend_loud=np.zeros((0, n_bins), dtype=bool),
+                            q_cal=gate_init(n_bins), r_dir=np.ones(n_bins, dtype=complex))
 
 
 def _band(p: CalibrationParams, fs: int, band_hz: tuple[float, float] | None = None) -> slice:
@@ -337,6 +399,14 @@ def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_ha
     return skip, after[n_ahead:], new_last
 
 
+def _level_sum(e: np.ndarray, p: CalibrationParams, fs: int) -> np.ndarray:
+    """The level rule's power per cell ``(F, K)``: over ``level_band_hz`` without the bin and its
+    neighbours (``level_scope="band"``), or of the bins :data:`LEVEL_NEAR` away (``"bin"``)."""
+    if p.level_scope == "bin":
+        return _shift_sum(e, LEVEL_NEAR)
+    return _leave_out_sum(e, _band(p, fs, p.level_band_hz))
+
+
 def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float, frontal=None):
     """The level rule: ``(fires (F, K), state changes)``, True where more than the noise is present.
 
@@ -353,7 +423,7 @@ def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     n_window = max(1, int(math.ceil(float(p.level_floor_s) * fs / int(p.hop))))
     floor_lam = None if p.level_floor_lam is None else float(p.level_floor_lam)
     rule = dict(lam=lam, n_window=n_window, cap=math.inf, floor_lam=floor_lam)
-    band = _leave_out_sum(e, _band(p, fs, p.level_band_hz))
+    band = _level_sum(e, p, fs)
     # the filter bank's first frames hold part of a window of signal: too quiet for a floor
     n_start = -(-int(p.frame_len) // int(p.hop)) - 1
     m = max(0, n_start - state.n_frames)
@@ -391,8 +461,10 @@ def _freeze(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, d
                                 gate_db=float(p.freeze_band_db), **rule)
     frontal, changes = None, {}
     if p.level_frontal_db is not None and p.freeze_level_db is not None:
+        pF, pB = ((_leave_out_sum(eF, band), _leave_out_sum(eB, band)) if p.level_scope == "band"
+                  else (_shift_sum(eF, LEVEL_NEAR), _shift_sum(eB, LEVEL_NEAR)))
         frontal, changes["q_front"] = power_ratio_gate(
-            _leave_out_sum(eF, band), _leave_out_sum(eB, band), state=state.q_front,
+            pF, pB, state=state.q_front,
             gate_db=float(p.level_frontal_db), lam=float(p.gate_lam_cal), n_window=0)
     loud, level_changes = _level_rule(X1, X2, state, p, fs=fs, lam=float(p.gate_lam_cal), frontal=frontal)
     return per_bin | whole, loud, {"q_bin": q, "q_band": w, **changes, **level_changes}
@@ -488,18 +560,71 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
     the level rule and its hangover (no look ahead: what beta and the DAS weight, which cannot wait,
     use); new state.
     """
+    if p.cal_frontal_db is None or X1.shape[0] == 0:
+        return _masks_step(X1, X2, state, p, fs=fs, delay=delay)
+    # the calibrated direction rule needs the estimate so far: chunks of cal_chunk frames counted from
+    # the stream start (so blocks of any size give the same chunks), each judged with the estimate
+    # applied at its start (state.r_dir)
+    F, n = X1.shape[0], int(p.cal_chunk)
+    parts, lo = [], 0
+    while lo < F:
+        if state.n_frames % n == 0:
+            state = dataclasses.replace(state, r_dir=state.r_last.copy())
+        hi = min(F, lo + n - state.n_frames % n)
+        extra, q_cal = _calibrated_frontal(X1[lo:hi], X2[lo:hi], state, p, delay=delay, fs=fs)
+        state = dataclasses.replace(state, q_cal=q_cal)
+        r, card, loud, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, extra=extra)
+        parts.append((r, card, loud))
+        lo = hi
+    return (*(np.concatenate([q[i] for q in parts]) for i in range(3)), state)
+
+
+def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *, delay: float, fs: int):
+    """The calibrated direction rule: ``(fires (F, K), new q_cal)``, True where a frontal source dominates.
+
+    The forward/backward cardioids of the *calibrated* pair ``X1, X2 / r`` (``r``: the estimate
+    applied at the start of the chunk of ``cal_chunk`` frames, ``state.r_dir``), powers over the bins :data:`LEVEL_NEAR` away
+    (``level_scope="bin"``) or over ``fit_band_hz`` without the bin and its neighbours (``"band"``),
+    one-pole smoothed (``gate_lam_cal``); fires where ``P_F / P_B`` exceeds ``cal_frontal_db``
+    (absolute: 0 dB is a diffuse field, a rear source is below it).  Once calibrated, the
+    backward cardioid blocks the look half plane at every frequency, so the ratio tells a
+    talker from noise at every input level (uncalibrated, a 1 dB / 5 deg mismatch pulls every
+    source's ratio towards 0 dB at low frequencies).
+    """
+    ph = np.exp(-1j * bin_omega(int(p.frame_len)) * delay)
+    X2c = X2 / state.r_dir[None, :]
+    cF, cB = X1 - ph * X2c, X2c - ph * X1
+    eF, eB = cF.real**2 + cF.imag**2, cB.real**2 + cB.imag**2
+    if p.level_scope == "bin":
+        pF, pB = _shift_sum(eF, LEVEL_NEAR), _shift_sum(eB, LEVEL_NEAR)
+    else:
+        band = _band(p, fs)
+        pF, pB = _leave_out_sum(eF, band), _leave_out_sum(eB, band)
+    return power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db),
+                            lam=float(p.gate_lam_cal), n_window=0)
+
+
+def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None):
+    """:func:`calibration_masks_step` for one chunk; ``extra (F, K)``: more cells the averages skip (or None)."""
     F, K = X1.shape
     if F == 0:
         none = np.zeros((0, K), dtype=bool)
         return np.ones((0, K), dtype=complex), none, none, state
     band = _band(p, fs)
     card, loud, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
+    # the calibrated direction rule stops the averages only (beta and the DAS weight keep card / level),
+    # or (cal_frontal_beam) joins the level rule: held, looked ahead, and in the masks beam_freeze names
+    card_learn = card
+    if extra is not None and p.cal_frontal_beam:
+        loud = loud | extra
+    elif extra is not None:
+        card_learn = card | extra
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
     # the averages run level_ahead_s (D frames) behind the input, so the level rule can freeze
     # a frame for what comes after it too (a talker's onset rises over several frames)
-    n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.freeze_level_db is not None else 0
+    n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.talker_blind else 0
     pend_x, pend_card, pend_loud = _pending(state, n_ahead)
-    xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card]), np.concatenate([pend_loud, loud])
+    xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn]), np.concatenate([pend_loud, loud])
     learn_frozen, level_now, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
@@ -569,6 +694,8 @@ class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
     freeze_level_db, level_band_hz, level_floor_s, level_hang_s, level_ahead_s, ramp_frames : the
         talker-blind mode (module docstring; None / 200-7000 Hz / 3 s / 0.1 s / 0.1 s / 0: off).
     level_floor_lam, level_frontal_db, beam_freeze : its variants (None / None / ``"both"``).
+    cal_frontal_db, level_scope, cal_frontal_beam, cal_chunk : the calibrated direction rule (module
+        docstring; None: off / ``"band"`` / False / 8 frames).
 
     Examples
     --------

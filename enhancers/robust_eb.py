@@ -137,7 +137,7 @@ class RobustElkoBeamformer(SubbandBase):
             mode = self.params.beam_freeze
             mix_frozen = card if mode == "cardioid" else card | level
             beta_frozen = {"both": mix_frozen, "level": level, "cardioid": None}[mode]
-            if self.params.freeze_level_db is None:
+            if not self.params.talker_blind:
                 beta_frozen = None
             record.update(r_hat=r_hat, frozen=mix_frozen)
         Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, beta_frozen=beta_frozen)

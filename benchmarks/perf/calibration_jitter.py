@@ -1,7 +1,8 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE] [--mismatch-seeds N] [--skip-mismatch]
+        [--noises babble ...] [--blind | --direction] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE]
+        [--mismatch-seeds N] [--skip-mismatch] [--decompose]
 
 ``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``beam_freeze='"level"'
 level_frontal_db=1``; JSON lists become tuples), for both systems and the mismatch rows.
@@ -9,6 +10,9 @@ level_frontal_db=1``; JSON lists become tuples), for both systems and the mismat
 ``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
 and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
 both systems; without it, their defaults.
+
+``--direction``: the calibrated direction rule (:data:`DIRECTION`, issue 16's third round: the
+forward/backward cardioid ratio of the calibrated pair per bin, no level rule) instead.
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -25,6 +29,13 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
 4. issue 12's mismatch loss (:func:`benchmarks.perf.robust_eb.snr_improvements`: 20 s, scored
    after 8 s, speech 45 deg, babble at 135 / 240 deg or diffuse, wind; ideal minus 1 dB / 5 deg
    rear mic) for ``eb-robust`` (target <= 2 dB at 135, 240 deg and diffuse).
+
+5. ``ss``'s own jitter (:func:`ss_floor`): ``eb-robust-ss``'s in the conditions where ``eb-robust``'s front
+   end is the same operation in both runs -- the part no calibration can remove (every row, with a fixed
+   front end: ``--set calibrate=false adapt_gate_db=-60 mix_alpha0=1.0``, the DAS path frozen at its prior);
+6. with ``--decompose``: for every ``eb-robust`` row above -30 dB, the jitter when only one adapted
+   quantity differs between the runs (``r_hat``, ``beta`` with the EQ it sets, ``alpha``):
+   :func:`swap_jitter`.
 
 Cost: every condition is rendered once and each system run twice (plus replays); the full
 ``phone`` (5 seeds, 90 conditions) takes a few minutes on one core.
@@ -52,6 +63,11 @@ AGREE_DB = 3.0
 # round's was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
 TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": True, "level_frontal_db": -1.0,
                 "beam_freeze": "level"}
+
+# the calibrated direction rule (issue 16, third round: enhancers/mic_calibration.py); the best of its
+# thresholds measured (-2 dB: the lowest jitter; it freezes almost every cell of diffuse or incoherent noise)
+DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0,
+             "ramp_over_band": True, "beam_freeze": "level"}
 
 
 def _params(blind, overrides=None) -> dict:
@@ -97,6 +113,30 @@ def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, ove
     return rows
 
 
+def swap_jitter(cond, data_dir, params: dict) -> dict[str, float]:
+    """``eb-robust``'s jitter on one condition with everything from the ``s + n`` run but one adapted
+    quantity from the ``s - n`` run: ``{"all": ..., "r_hat": ..., "beta": ... (with its EQ), "alpha": ...}``
+    (dB; which quantity carries the talker).  Reads the per-frame record the enhancer replays."""
+    images = render_group(cond, data_dir)[0]
+    rendered = images.mix(cond.snr_db)
+    s, n = rendered.speech_image, rendered.noise_image
+    ref = rendered.reference[0]
+    e = with_geometry(make("eb-robust", **params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+    lat, fb, S = int(e.tags.latency_samples), e.filterbank, e.filterbank.analyze(s)
+    rec1, rec2 = (e._step(x, e._init_state(cond.fs))[2] for x in (s + n, s - n))
+
+    def talker(rec):
+        y = fb.synthesize(e._apply(rec, S, cond.fs), s.shape[-1])[0]
+        return M.align(y, ref, latency_samples=lat)[0]
+
+    y1 = talker(rec1)
+    out = {"all": speech_jitter_db(y1, talker(rec2))}
+    for keys in (("r_hat",), ("beta", "eq"), ("alpha",)):
+        if keys[0] in rec1:
+            out[keys[0]] = speech_jitter_db(y1, talker({**rec1, **{k: rec2[k] for k in keys}}))
+    return out
+
+
 def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, overrides=None,
                progress=False) -> list[dict]:
     rows = []
@@ -123,6 +163,27 @@ def per_noise_means(rows) -> dict[str, float]:
     return {f"{s}/{nz}": float(np.mean([r["replay"] for r in g])) for (s, nz), g in sorted(_group(rows, "system", "noise").items())}
 
 
+def ss_floor(rows) -> dict[str, list[float]]:
+    """Per noise, ``eb-robust-ss``'s jitter (input SNR >= 15 dB) in the conditions where ``eb-robust``'s is
+    below -100 dB: there the front end is the same operation in both runs, so what remains is ``ss``'s own
+    (its gain follows the mixture, ``|s + n|`` in one run and ``|s - n|`` in the other)."""
+    fixed = {(r["noise"], r["snr"], r["seed"]) for r in rows if r["system"] == "eb-robust" and r["jitter"] < -100}
+    out = defaultdict(list)
+    for r in rows:
+        if r["system"] == "eb-robust-ss" and r["snr"] >= 15 and (r["noise"], r["snr"], r["seed"]) in fixed:
+            out[r["noise"]].append(r["jitter"])
+    return dict(out)
+
+
+def print_ss_floor(rows) -> None:
+    floor = ss_floor(rows)
+    if floor:
+        print("\nss's own jitter: eb-robust-ss where eb-robust's front end is identical in both runs (jitter < -100 dB)\n")
+        print("| noise | rows | worst | median | above -30 dB |\n| --- | ---: | ---: | ---: | ---: |")
+        for noise, j in sorted(floor.items()):
+            print(f"| {noise} | {len(j)} | {max(j):.1f} | {np.median(j):.1f} | {sum(x > -30 for x in j)} |")
+
+
 def print_tables(rows, baseline: dict | None) -> None:
     print("\nspeech_jitter_db (max / mean over seeds); target <= -30 dB for eb-robust-ss at input SNR >= 15 dB\n")
     print("| system | noise | " + " | ".join(f"{snr:g} dB" for snr in sorted({r['snr'] for r in rows})) + " |")
@@ -135,7 +196,9 @@ def print_tables(rows, baseline: dict | None) -> None:
         print(f"| {sysname} | {noise} | " + " | ".join(cells) + " |")
     hi = [r["jitter"] for r in rows if r["system"] == "eb-robust-ss" and r["snr"] >= 15]
     if hi:
-        print(f"\neb-robust-ss worst jitter at >= 15 dB: {max(hi):.1f} dB ({sum(j > -30 for j in hi)} of {len(hi)} rows above -30 dB)")
+        print(f"\neb-robust-ss worst jitter at >= 15 dB: {max(hi):.1f} dB, median {np.median(hi):.1f} dB "
+              f"({sum(j > -30 for j in hi)} of {len(hi)} rows above -30 dB)")
+    print_ss_floor(rows)
     print(f"\nreplay vs Hagerman SNR-I within {AGREE_DB:g} dB (target >= 95 % for eb-robust-ss)\n")
     print("| system | rows within | max abs diff (dB) |\n| --- | ---: | ---: |")
     for (sysname,), g in sorted(_group(rows, "system").items()):
@@ -146,6 +209,18 @@ def print_tables(rows, baseline: dict | None) -> None:
     for key, v in per_noise_means(rows).items():
         b = (baseline or {}).get(key)
         print(f"| {key} | {v:.2f} | " + ("" if b is None else f"{b:.2f} | {v - b:+.2f}") + " |")
+
+
+def print_decomposition(rows, data_dir, params: dict) -> None:
+    print("\neb-robust jitter (dB) with one adapted quantity swapped between the s + n and s - n runs, "
+          "rows above -30 dB\n")
+    print("| noise | SNR | seed | all | r_hat | beta+EQ | alpha |\n| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    conds = {(c.noise, c.snr_db, c.seed): c for c in load_sweep("phone").conditions()}
+    for r in rows:
+        if r["system"] == "eb-robust" and r["jitter"] > -30:
+            d = swap_jitter(conds[(r["noise"], r["snr"], r["seed"])], data_dir, params)
+            print(f"| {r['noise']} | {r['snr']:g} | {r['seed']} | " + " | ".join(
+                f"{d[k]:.1f}" if k in d else "" for k in ("all", "r_hat", "beta", "alpha")) + " |")
 
 
 def print_mismatch(seeds: int, blind: bool = False, overrides=None) -> None:
@@ -168,6 +243,8 @@ def main(argv=None) -> int:
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
+    ap.add_argument("--direction", action="store_true", help="the calibrated direction rule (DIRECTION)")
+    ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
     ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
@@ -178,6 +255,8 @@ def main(argv=None) -> int:
     overrides = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.set)}
     for k, v in overrides.items():  # JSON has no tuples; the band parameters are pairs
         overrides[k] = tuple(v) if isinstance(v, list) else v
+    if args.direction:
+        overrides = {**DIRECTION, **overrides}
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
                       overrides=overrides, progress=True)
     baseline = None
@@ -191,6 +270,8 @@ def main(argv=None) -> int:
     if args.save_baseline:
         with open(args.save_baseline, "w") as f:
             json.dump(per_noise_means(rows), f, indent=1)
+    if args.decompose:
+        print_decomposition(rows, args.data_dir, _params(args.blind, overrides))
     if not args.skip_mismatch:
         print_mismatch(args.mismatch_seeds, args.blind, overrides)
     return 0

@@ -1,0 +1,50 @@
+"""``benchmarks.perf.calibration_jitter``'s decomposition of ``eb-robust``'s speech jitter per adapted quantity.
+
+Oracle: :func:`benchmarks.perf.calibration_jitter.measure_condition`, which measures the jitter from the
+enhancer's public replays (``Result.replay``), a path independent of the record swapping under test.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from benchmarks.perf.calibration_jitter import measure_condition, swap_jitter
+from benchmarks.run.sweep import load_sweep
+
+
+@pytest.fixture(scope="module")
+def condition():
+    return next(c for c in load_sweep("phone").conditions() if c.noise == "wind" and c.snr_db == 15 and c.seed == 0)
+
+
+def test_swap_of_everything_is_the_replayed_jitter(condition):
+    """Swapping every adapted quantity is the ``s - n`` run itself: ``swap_jitter(...)["all"]`` equals the
+    jitter of the two runs' replays (to 1e-6 dB), and the default ``eb-robust`` adapts all three quantities."""
+    d = swap_jitter(condition, None, {})
+    row = next(r for r in measure_condition(condition, None, names=("eb-robust",)) if r["system"] == "eb-robust")
+    assert d["all"] == pytest.approx(row["jitter"], abs=1e-6)
+    assert set(d) == {"all", "r_hat", "beta", "alpha"}
+
+
+def test_a_quantity_not_adapted_is_absent_and_a_fixed_one_does_not_jitter(condition):
+    """``calibrate=False``: no ``r_hat`` to swap; ``das_mix=False`` and beta frozen by its own gate everywhere (``adapt_gate_db=-60``: above the ratio's floor - 60 dB): the talker
+    path is a fixed linear filter, identical in both runs (closed form: jitter -inf)."""
+    d = swap_jitter(condition, None, {"calibrate": False, "das_mix": False, "adapt_gate_db": -60.0})
+    assert set(d) == {"all", "beta"}
+    assert d["all"] < -200 or math.isinf(d["all"])
+
+
+def test_ss_floor_keeps_only_conditions_with_an_identical_front_end():
+    """Hand-built rows: ``eb-robust-ss``'s jitter is kept where ``eb-robust``'s is below -100 dB in the same
+    condition and the input SNR is >= 15 dB, nowhere else."""
+    from benchmarks.perf.calibration_jitter import ss_floor
+
+    def row(system, snr, seed, jitter):
+        return dict(system=system, noise="wind", snr=snr, seed=seed, jitter=jitter)
+
+    rows = [row("eb-robust", 15, 0, -300.0), row("eb-robust-ss", 15, 0, -21.0),   # kept
+            row("eb-robust", 15, 1, -40.0), row("eb-robust-ss", 15, 1, -25.0),    # front end differs
+            row("eb-robust", 10, 0, -300.0), row("eb-robust-ss", 10, 0, -12.0)]   # below 15 dB
+    assert ss_floor(rows) == {"wind": [-21.0]}
