@@ -152,6 +152,12 @@ def _weights(params: Superdirective.Params, fs: int) -> np.ndarray:
     return w
 
 
+@functools.lru_cache(maxsize=64)
+def _conj_weights(params: Superdirective.Params, fs: int) -> np.ndarray:
+    """``conj(w).T`` (``(2, n_bins)``, C-contiguous) at ``fs``: ``Y = wc[0] X[0] + wc[1] X[1]``."""
+    return np.ascontiguousarray(np.conj(_weights(params, fs).T))
+
+
 class Superdirective(Enhancer):
     """Fixed 2-mic superdirective (diffuse-field MVDR) beamformer with a WNG floor (Cox 1987).
 
@@ -195,8 +201,8 @@ class Superdirective(Enhancer):
                 raise ParameterError("hop", self.hop, f"a divisor of frame_len={n}")
             FilterBank(frame_len=self.frame_len, hop=self.hop, window=self.window)
 
-    @property
-    def filterbank(self) -> FilterBank:
+    @functools.cached_property
+    def filterbank(self) -> FilterBank:  # params are frozen (cached: read per block)
         p = self.params
         return _filterbank(p.frame_len, p.hop, p.window)
 
@@ -219,9 +225,15 @@ class Superdirective(Enhancer):
 
     def _process_block(self, block: np.ndarray, state: _SdState):
         fb = self.filterbank
-        X, ana = fb.analysis_step(block, state.analysis)
-        out, syn = fb.synthesis_step(self._apply(X, state.fs), block.shape[-1], state.synthesis)
-        return out, _SdState(analysis=ana, synthesis=syn, fs=state.fs)
+        X, state.analysis = fb.analysis_step(block, state.analysis)
+        if X.shape[1]:
+            # 1-2 frames per 10 ms block: two products beat einsum's set-up (the same sums, to rounding)
+            wc = _conj_weights(self.params, state.fs)
+            X = (wc[0] * X[0] + wc[1] * X[1])[None]
+        else:
+            X = X[:1]
+        out, state.synthesis = fb.synthesis_step(X, block.shape[-1], state.synthesis)
+        return out, state  # updated in place (the contract allows it): no new state per block
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
         fb = self.filterbank
