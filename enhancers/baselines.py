@@ -175,7 +175,8 @@ class DelayAndSum(Enhancer):
         import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
 
         if 0 < block.shape[1] <= sk.MAX_BLOCK:  # compiled FIR; the history is updated in place
-            return sk.fir_pair_block(block, state["history"], state["h"])[None, :], state
+            hist = state["history"]
+            return sk.fir_pair_block(sk.extend(hist, block), hist, state["h"])[None, :], state
         h = state["h"]
         ext = np.concatenate([state["history"], block], axis=1)
         out = self._filter(ext, h)[None, :]

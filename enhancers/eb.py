@@ -161,7 +161,8 @@ class _DifferentialBase(Enhancer):
         ghist = _EMPTY if state.g_hist is None else state.g_hist
         sc = np.array([state.beta, state.phase, state.s_fb, state.s_bb, state.s_11, state.g_f, state.g_b,
                        state.p_b, state.p_1])
-        y = sk.differential_block(block, state.history, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window)
+        ext = sk.extend(state.history, block)
+        y = sk.differential_block(ext, state.history, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window)
         (state.beta, phase, state.s_fb, state.s_bb, state.s_11, state.g_f, state.g_b, state.p_b,
          state.p_1) = sc.tolist()
         state.phase = int(phase)

@@ -25,7 +25,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["MAX_BLOCK", "differential_block", "fir_pair_block", "ss_ms1994_frames", "warm_up"]
+__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ss_ms1994_frames", "warm_up"]
 
 #: Longest block (samples) run through the compiled steps; longer blocks (batch) take the numpy path.
 MAX_BLOCK = 4096
@@ -41,20 +41,27 @@ def _clip(v, lo, hi):  # pragma: no cover - compiled
     return lo if v < lo else (hi if v > hi else v)
 
 
+def extend(hist: np.ndarray, block: np.ndarray) -> np.ndarray:
+    """``[hist | block]`` per row: a new C-contiguous writable float64 array, ``(rows, H + n)``.
+
+    The kernels take this rather than the block so that one compiled specialisation serves every
+    block (a strided slice, a read-only array and a contiguous one are distinct numba types,
+    each compiled on its first call).
+
+    >>> extend(np.zeros((2, 1)), np.ones((2, 2))).tolist()
+    [[0.0, 1.0, 1.0], [0.0, 1.0, 1.0]]
+    """
+    return np.concatenate([hist, block], axis=1)
+
+
 @numba.njit(cache=True)
-def _shift_in(hist, block):  # pragma: no cover - compiled
-    """``ext = [hist | block]`` per row (a new (rows, H + n) array) and ``hist`` <- its last H columns."""
+def _keep_tail(ext, hist):  # pragma: no cover - compiled
+    """``hist`` <- the last ``H`` columns of ``ext`` (the history for the next block)."""
     rows, H = hist.shape
-    n = block.shape[1]
-    ext = np.empty((rows, H + n))
+    n = ext.shape[1] - H
     for c in range(rows):
         for t in range(H):
-            ext[c, t] = hist[c, t]
-        for t in range(n):
-            ext[c, H + t] = block[c, t]
-        for t in range(H):
             hist[c, t] = ext[c, n + t]
-    return ext
 
 
 @numba.njit(cache=True)
@@ -80,10 +87,10 @@ def _gate_ref(ghist, r, n_window):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def differential_block(block, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window):  # pragma: no cover
+def differential_block(ext, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window):  # pragma: no cover
     """One block of ``y = cF - beta cB`` (+ equaliser) of :mod:`enhancers.eb`; returns ``y`` ``(n,)``.
 
-    block : (2, n) input; hist : (2, H) last H input samples (updated)
+    ext : (2, H + n) = :func:`extend` ``(hist, block)``; hist : (2, H) last H input samples (updated)
     h : (m,) FIR of the delayed branch; lat : bulk delay L (samples)
     eq_b, eq_a : equaliser numerator/denominator padded to one length (``a[0] = 1``), or empty
         arrays for no equaliser; zi : its direct-form-II-transposed state (updated)
@@ -95,9 +102,9 @@ def differential_block(block, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, 
     The arithmetic is that of the numpy step (``branch_signals``, ``_betas_block`` /
     ``_betas_sample``, ``lfilter``) in the same order, except the FIR's sums.
     """
-    n = block.shape[1]
-    ext = _shift_in(hist, block)
     H = hist.shape[1]
+    n = ext.shape[1] - H
+    _keep_tail(ext, hist)
     m = h.shape[0]
     start = H - lat
     mu, eps, lo, hi = pp[0], pp[1], pp[2], pp[3]
@@ -186,14 +193,14 @@ def _iir(b, a, x, zi):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def fir_pair_block(block, hist, h):  # pragma: no cover - compiled
+def fir_pair_block(ext, hist, h):  # pragma: no cover - compiled
     """``y[i] = sum_c sum_j h[c, j] ext[c, H + i - j]`` over ``ext = [hist | block]`` (``(n,)``); ``hist`` updated.
 
     The two-channel FIR of :class:`enhancers.baselines.DelayAndSum` (``H = n_taps - 1``).
     """
-    n = block.shape[1]
-    ext = _shift_in(hist, block)
     H = hist.shape[1]
+    n = ext.shape[1] - H
+    _keep_tail(ext, hist)
     m = h.shape[1]
     y = np.empty(n)
     for i in range(n):
@@ -275,20 +282,20 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
 
 
 def warm_up() -> None:
-    """Compile (or load from the cache) every kernel for the argument types the enhancers pass."""
-    rng = np.random.default_rng(0)
-    x = rng.standard_normal((2, 40))
-    empty = np.zeros(0)
-    for block in (x, x[:, 3:23]):  # C-contiguous and strided blocks (slices of a 2-D signal)
-        for mode in (FIXED, BLOCK_NLMS, SAMPLE_NLMS):
-            pp = np.array([0.05, 1e-6, 0.0, 1.0, 16.0, 0.99, 0.99, 3.0])
-            differential_block(block, np.zeros((2, 33)), np.ones(33) / 33, 16, np.ones(3), np.zeros(3),
-                               np.zeros(2), np.zeros(9), pp, mode, mode == BLOCK_NLMS, np.full(4, np.inf), 5)
-            differential_block(block, np.zeros((2, 33)), np.ones(33) / 33, 16, empty, empty, empty,
-                               np.zeros(9), pp, mode, False, empty, 0)
-        fir_pair_block(block, np.zeros((2, 31)), np.ones((2, 32)))
-    X = np.fft.rfft(x, axis=-1)
+    """Compile (or load from the cache) every kernel for the argument types the enhancers pass.
+
+    A stream that must not pay the JIT inside its first block calls this first (seconds with an
+    empty cache, well under one with a warm one: ``benchmarks/perf/stream_jit.py``).
+
+    >>> warm_up()
+    """
+    x = np.random.default_rng(0).standard_normal((2, 40))
+    pp = np.array([0.05, 1e-6, 0.0, 1.0, 16.0, 0.99, 0.99, 3.0])
+    hist = np.zeros((2, 33))
+    differential_block(extend(hist, x), hist, np.ones(33) / 33, 16, np.ones(3), np.zeros(3), np.zeros(2),
+                       np.zeros(9), pp, BLOCK_NLMS, True, np.full(4, np.inf), 5)
+    hist = np.zeros((2, 31))
+    fir_pair_block(extend(hist, x), hist, np.ones((2, 32)))
     gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0])
-    for Xf in (X, X[None, 0, :]):
-        ss_ms1994_frames(Xf, np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf), np.zeros(2),
-                         np.ones(21), gp, True)
+    ss_ms1994_frames(np.fft.rfft(x, axis=-1), np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf),
+                     np.zeros(2), np.ones(21), gp, True)
