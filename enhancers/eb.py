@@ -32,6 +32,10 @@ Given the beta sequence, the output is linear in (p1, p2):
 
 Latency: ``fd_half_len`` samples (both branches are delayed by it so a fractional ``T fs``
 can use a centred windowed sinc; whole-number ``T fs`` uses exact shifts).
+
+Streaming: blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run the compiled
+:func:`enhancers.stream_kernels.differential_block` (the same arithmetic, one call per block,
+the state updated in place); longer blocks and batch run the numpy step below, the reference.
 """
 
 from __future__ import annotations
@@ -79,7 +83,7 @@ class _DifferentialParams(Params):
 
 
 @dataclass
-class _DiffState:
+class _DiffState:  # the numpy step replaces it, the compiled step updates it in place
     fs: int
     history: np.ndarray          # (2, filters.history) last input samples
     beta: float

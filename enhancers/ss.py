@@ -19,7 +19,10 @@ leave residual noise, never add energy; ``gain_max=1000`` restores the literal r
 The gain mask ``G`` is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
 ``Result.replay`` applies it to a component's STFT and synthesizes: exact shadow
 filtering (algorithms.md section 8).  Batch processing is the streaming step applied to
-the whole signal, so batch and streaming outputs agree for every block size.
+the whole signal, so batch and streaming outputs agree for every block size.  ``ss`` streams
+blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples through a compiled tracker
+and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame; the
+filter bank is the same); the numpy step stays the reference.
 """
 
 from __future__ import annotations
