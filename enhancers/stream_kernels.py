@@ -25,7 +25,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ss_ms1994_frames", "warm_up"]
+__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_ms1994_frames",
+           "warm_up"]
 
 #: Longest block (samples) run through the compiled steps; longer blocks (batch) take the numpy path.
 MAX_BLOCK = 4096
@@ -281,6 +282,102 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
     return Y, G, Pn_out
 
 
+@numba.njit(cache=True)
+def ms2001_frames(S, p, sn2, pb, pb2, pminu, actmin, actminsub, actbuf, lminflag, sc, cp, qith, nsms):  # pragma: no cover
+    """Martin 2001 tracker (:func:`enhancers.noise_tracking.ms2001_step`) for frames ``S`` ``(F, K)``.
+
+    p, sn2, pb, pb2, pminu, actmin, actminsub : (K,) ; actbuf : (nu, K) ; lminflag : (K,) bool --
+        the state after the first frame's initialisation, every array distinct (updated)
+    sc : [ac, subwc, ibuf, t] (updated)
+    cp : [aca, amax, aminh, bmax, snrexp, nv, nu, nd, md, mv, av, qeqimax, qeqimin]
+    qith, nsms : thresholds of the mean inverse degrees of freedom and their noise-slope factors
+
+    Returns ``(P, Pn)``, each ``(F, K)``.  The arithmetic of the numpy loop, bin by bin; its sums
+    over bins run in index order here (numpy sums pairwise), a difference of rounding only.
+    """
+    F, K = S.shape
+    aca, amax, aminh, bmax, snrexp = cp[0], cp[1], cp[2], cp[3], cp[4]
+    nv, nu, nd, md, mv = int(cp[5]), int(cp[6]), int(cp[7]), cp[8], cp[9]
+    av, qeqimax, qeqimin = cp[10], cp[11], cp[12]
+    ac, subwc, ibuf, t = sc[0], int(sc[1]), int(sc[2]), int(sc[3])
+    pout = np.empty((F, K))
+    out = np.empty((F, K))
+    ah = np.empty(K)
+    qeqi = np.empty(K)
+    kmod = np.empty(K, dtype=np.bool_)
+    for f in range(F):
+        t += 1
+        sum_y = 0.0
+        sum_sn2 = 0.0
+        sum_p = 0.0
+        for k in range(K):
+            sum_y += S[f, k]
+            sum_sn2 += sn2[k]
+            sum_p += p[k]
+        sum_y = max(sum_y, TINY)
+        sum_sn2 = max(sum_sn2, TINY)
+        ratio = min(sum_p / sum_y, 1e100)  # bounded: a silent frame must not overflow
+        acb = 1.0 / (1.0 + (ratio - 1.0) ** 2)                                        # (9)
+        ac = aca * ac + (1.0 - aca) * max(acb, aca)                                    # (10)
+        snr = max(sum_p / sum_sn2, TINY)
+        floor_ah = min(aminh, snr ** snrexp)                                           # (12)
+        qsum = 0.0
+        for k in range(K):
+            a = amax * ac / (1.0 + (p[k] / max(sn2[k], TINY) - 1.0) ** 2)              # (11)
+            a = max(a, floor_ah)
+            ah[k] = a
+            pk = a * p[k] + (1.0 - a) * S[f, k]                                         # (3)
+            p[k] = pk
+            b = min(a * a, bmax)
+            pb[k] = b * pb[k] + (1.0 - b) * pk                                          # (20)
+            pb2[k] = b * pb2[k] + (1.0 - b) * (pk * pk)                                 # (21)
+            q = min((pb2[k] - pb[k] * pb[k]) / max(2.0 * (sn2[k] * sn2[k]), TINY), qeqimax)
+            q = max(q, qeqimin / t)                                                     # (23)
+            qeqi[k] = q
+            qsum += q
+        qiav = qsum / K
+        bc = 1.0 + av * math.sqrt(qiav)
+        for k in range(K):
+            bmind = 1.0 + 2.0 * (nd - 1) * (1.0 - md) / (1.0 / qeqi[k] - 2.0 * md)       # (17)
+            bminv = 1.0 + 2.0 * (nv - 1) * (1.0 - mv) / (1.0 / qeqi[k] - 2.0 * mv)
+            cand = bc * p[k] * bmind
+            kmod[k] = cand < actmin[k]
+            if kmod[k]:
+                actmin[k] = cand
+                actminsub[k] = bc * p[k] * bminv
+        if 1 < subwc < nv:  # middle of a sub-window: allow a local minimum
+            for k in range(K):
+                lminflag[k] = lminflag[k] or kmod[k]
+                pminu[k] = min(actminsub[k], pminu[k])
+                sn2[k] = pminu[k]
+        elif subwc >= nv:  # end of a sub-window: buffer switch
+            ibuf = ibuf % nu + 1
+            j = 0
+            while j < qith.shape[0] - 1 and not qiav < qith[j]:  # qith ends with +inf
+                j += 1
+            nsm = nsms[j]
+            for k in range(K):
+                actbuf[ibuf - 1, k] = actmin[k]
+                m = actbuf[0, k]
+                for i in range(1, nu):
+                    if actbuf[i, k] < m:
+                        m = actbuf[i, k]
+                if (lminflag[k] and not kmod[k] and actminsub[k] < nsm * m and actminsub[k] > m):
+                    m = actminsub[k]
+                    for i in range(nu):
+                        actbuf[i, k] = m
+                pminu[k] = m
+                lminflag[k] = False
+                actmin[k] = np.inf
+            subwc = 0
+        subwc += 1
+        for k in range(K):
+            out[f, k] = sn2[k]
+            pout[f, k] = p[k]
+    sc[0], sc[1], sc[2], sc[3] = ac, subwc, ibuf, t
+    return pout, out
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) every kernel for the argument types the enhancers pass.
 
@@ -299,3 +396,6 @@ def warm_up() -> None:
     gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0])
     ss_ms1994_frames(np.fft.rfft(x, axis=-1), np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf),
                      np.zeros(2), np.ones(21), gp, True)
+    from enhancers.noise_tracking import MS2001Config, ms2001_init, ms2001_step
+
+    ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))

@@ -32,6 +32,9 @@ CASES = [
     ("ss", {}, "ss_ms1994_frames"),
     ("ss", {"snr_def": "instant", "omin": 1.5, "gain_max": 10.0}, "ss_ms1994_frames"),
     ("ss", {"n_sub": 3, "sub_len": 5, "frame_len": 128, "hop": 32}, "ss_ms1994_frames"),
+    ("ss-ms2001", {}, "ms2001_frames"),
+    ("ss-ms2001", {"td": 0.3, "nu": 3, "snr_def": "instant"}, "ms2001_frames"),
+    ("mmse-lsa", {}, "ms2001_frames"),
 ]
 
 
