@@ -14,7 +14,9 @@ bins (algorithms.md section 6).  A batch call is the same step on all frames at 
 * :func:`ms2001_step` (Martin 2001, optimal smoothing and bias compensation), following
   the structure and defaults of VOICEBOX ``estnoisem`` (taca .0449, tamax .392, taminh
   .0133, tpfall .064, tbmax .0717 s, qeqmin 2, qeqmax 14, av 2.12, td 1.536 s, nu 8).
-  Its smoothing is recursive and nonlinear, so it loops over frames (vectorized over bins).
+  Its smoothing is recursive and nonlinear, so it loops over frames (vectorized over bins);
+  runs of at most ``SMALL_RUN`` frames (streaming) take the same loop compiled
+  (:func:`enhancers.stream_kernels.ms2001_frames`).
 """
 
 from __future__ import annotations

@@ -3,11 +3,12 @@
 Why compiled: a 10 ms block is 160 samples (1-2 frames of the 8 ms-hop filter bank), and the
 numpy step spends it on 20-40 small array calls of 1-5 us dispatch each, which the batch path
 pays once per signal.  One kernel call per block touches each sample once and allocates only
-its outputs.  The numpy steps stay as the reference: every enhancer runs this kernel for blocks
-of at most :data:`MAX_BLOCK` samples and its numpy step for longer ones (batch), so batch ==
-concatenated streaming is also a check of the kernel against the reference, and
-``tests/test_stream_kernels.py`` compares the two paths on random multi-block input (1e-12
-relative).  Setting ``MAX_BLOCK = 0`` routes every block through the numpy reference.
+its outputs.  The numpy steps stay as the reference: every enhancer runs its kernel for blocks
+of at most :data:`MAX_BLOCK` samples (the Martin 2001 tracker: runs of at most 4 frames) and
+its numpy step for longer ones (batch), so batch == concatenated streaming is also a check of
+the kernel against the reference, and ``tests/test_stream_kernels.py`` compares the two paths
+on random multi-block input (1e-12 relative).  ``MAX_BLOCK = 0`` routes every block through
+the numpy reference.
 
 ``cache=True`` keeps the machine code under ``__pycache__`` (or ``$NUMBA_CACHE_DIR``), so only
 the first call in a fresh install pays the JIT (measured by ``benchmarks/perf/stream_jit.py``).

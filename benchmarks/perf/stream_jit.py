@@ -19,7 +19,7 @@ import sys
 import tempfile
 
 #: Streaming built-ins with a compiled per-block step.
-COMPILED = ("eb", "eb-gated", "cardioid", "hypercardioid", "das", "ss", "eb-ss")
+COMPILED = ("eb", "eb-gated", "cardioid", "hypercardioid", "das", "ss", "ss-ms2001", "mmse-lsa", "eb-ss")
 
 _CODE = """
 import time
