@@ -136,6 +136,7 @@ class _SdState:
     analysis: FilterBankState  # 2 channels in (tail, phase)
     synthesis: FilterBankState  # 1 channel out (overlap-add, queue)
     fs: int
+    wc: np.ndarray | None = None  # conj(w).T at fs, (2, n_bins): read per block, so kept here
 
 
 @functools.lru_cache(maxsize=32)
@@ -150,12 +151,6 @@ def _weights(params: Superdirective.Params, fs: int) -> np.ndarray:
                                   look_az_deg=params.look_az_deg, wng_min_db=params.wng_min_db)
     w.setflags(write=False)
     return w
-
-
-@functools.lru_cache(maxsize=64)
-def _conj_weights(params: Superdirective.Params, fs: int) -> np.ndarray:
-    """``conj(w).T`` (``(2, n_bins)``, C-contiguous) at ``fs``: ``Y = wc[0] X[0] + wc[1] X[1]``."""
-    return np.ascontiguousarray(np.conj(_weights(params, fs).T))
 
 
 class Superdirective(Enhancer):
@@ -221,14 +216,15 @@ class Superdirective(Enhancer):
 
     def _init_state(self, fs: int) -> _SdState:
         fb = self.filterbank
-        return _SdState(analysis=fb.init_state(2), synthesis=fb.init_state(1), fs=fs)
+        wc = np.ascontiguousarray(np.conj(self.weights(fs).T))  # Y = wc[0] X[0] + wc[1] X[1]
+        return _SdState(analysis=fb.init_state(2), synthesis=fb.init_state(1), fs=fs, wc=wc)
 
     def _process_block(self, block: np.ndarray, state: _SdState):
         fb = self.filterbank
         X, state.analysis = fb.analysis_step(block, state.analysis)
         if X.shape[1]:
             # 1-2 frames per 10 ms block: two products beat einsum's set-up (the same sums, to rounding)
-            wc = _conj_weights(self.params, state.fs)
+            wc = state.wc
             X = (wc[0] * X[0] + wc[1] * X[1])[None]
         else:
             X = X[:1]
