@@ -88,6 +88,38 @@ def _gate_ref(ghist, r, n_window):  # pragma: no cover - compiled
     return m if m < 0.0 else 0.0
 
 
+@numba.njit(cache=True, inline="always")
+def _branches(ext, h, H, start, i):  # pragma: no cover - compiled
+    """``(cF, cB, p1)`` at block sample ``i`` (``branch_signals`` of :mod:`enhancers.differential`)."""
+    acc1 = 0.0
+    acc2 = 0.0
+    for j in range(h.shape[0]):
+        acc1 += h[j] * ext[0, H + i - j]
+        acc2 += h[j] * ext[1, H + i - j]
+    p1 = ext[0, start + i]
+    return p1 - acc2, ext[1, start + i] - acc1, p1
+
+
+@numba.njit(cache=True, inline="always")
+def _block_update(beta, s_fb, s_bb, s_11, pp, frozen):  # pragma: no cover - compiled
+    """Beta after a closed adaptation block with sums ``s_*`` (``_betas_block``): ``beta keep + gain``, clipped."""
+    mu, eps = pp[0], pp[1]
+    den = s_bb + eps * s_11 + TINY
+    gain = mu * s_fb / den
+    keep = 1.0 - mu * s_bb / den
+    if frozen:  # a frozen block leaves beta unchanged
+        gain = 0.0
+        keep = 1.0
+    return _clip(beta * keep + gain, pp[2], pp[3])
+
+
+@numba.njit(cache=True, inline="always")
+def _gate_frozen(g_f, g_b, ghist, n_window, gate_db):  # pragma: no cover - compiled
+    """The adaptation gate's decision (``ElkoBeamformer._gate``) from the smoothed powers; ``ghist`` shifted."""
+    r = 10.0 * math.log10((g_f + TINY) / (g_b + TINY))
+    return r > _gate_ref(ghist, r, n_window) + gate_db
+
+
 @numba.njit(cache=True)
 def differential_block(ext, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window):  # pragma: no cover
     """One block of ``y = cF - beta cB`` (+ equaliser) of :mod:`enhancers.eb`; returns ``y`` ``(n,)``.
@@ -107,28 +139,14 @@ def differential_block(ext, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, gh
     H = hist.shape[1]
     n = ext.shape[1] - H
     _keep_tail(ext, hist)
-    m = h.shape[0]
-    start = H - lat
-    mu, eps, lo, hi = pp[0], pp[1], pp[2], pp[3]
-    B = int(pp[4])
-    lam, g, gate_db = pp[5], pp[6], pp[7]
-    beta = sc[0]
-    phase = int(sc[1])
-    s_fb = 0.0
-    s_bb = 0.0
-    s_11 = 0.0
+    B, lam, g = int(pp[4]), pp[5], pp[6]
+    beta, phase = sc[0], int(sc[1])
+    s_fb = s_bb = s_11 = 0.0  # sums of the adaptation block being filled, from this call's samples
     g_f, g_b, p_b, p_1 = sc[5], sc[6], sc[7], sc[8]
     first_open = True
     y = np.empty(n)
     for i in range(n):
-        acc1 = 0.0
-        acc2 = 0.0
-        for j in range(m):
-            acc1 += h[j] * ext[0, H + i - j]
-            acc2 += h[j] * ext[1, H + i - j]
-        p1 = ext[0, start + i]
-        cf = p1 - acc2
-        cb = ext[1, start + i] - acc1
+        cf, cb, p1 = _branches(ext, h, H, H - lat, i)
         y[i] = cf - beta * cb
         if mode == BLOCK_NLMS:
             s_fb += cf * cb
@@ -139,37 +157,21 @@ def differential_block(ext, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, gh
                 g_b = (1.0 - g) * (cb * cb) + g * g_b
             if (phase + i + 1) % B == 0:  # an adaptation block closes at this sample
                 if first_open:  # the block that was open when the call started
-                    s_fb += sc[2]
-                    s_bb += sc[3]
-                    s_11 += sc[4]
+                    s_fb, s_bb, s_11 = s_fb + sc[2], s_bb + sc[3], s_11 + sc[4]
                     first_open = False
-                den = s_bb + eps * s_11 + TINY
-                gain = mu * s_fb / den
-                keep = 1.0 - mu * s_bb / den
-                if gate:
-                    r = 10.0 * math.log10((g_f + TINY) / (g_b + TINY))
-                    if r > _gate_ref(ghist, r, n_window) + gate_db:
-                        gain = 0.0
-                        keep = 1.0
-                beta = _clip(beta * keep + gain, lo, hi)
-                s_fb = 0.0
-                s_bb = 0.0
-                s_11 = 0.0
+                frozen = gate and _gate_frozen(g_f, g_b, ghist, n_window, pp[7])
+                beta = _block_update(beta, s_fb, s_bb, s_11, pp, frozen)
+                s_fb = s_bb = s_11 = 0.0
         elif mode == SAMPLE_NLMS:
             p_b = (1.0 - lam) * (cb * cb) + lam * p_b
             p_1 = (1.0 - lam) * (p1 * p1) + lam * p_1
-            den = p_b + eps * p_1 + TINY
-            beta = _clip(beta + mu * (cf - beta * cb) * cb / den, lo, hi)
+            den = p_b + pp[1] * p_1 + TINY
+            beta = _clip(beta + pp[0] * (cf - beta * cb) * cb / den, pp[2], pp[3])
     if mode == BLOCK_NLMS:
         if first_open:
-            s_fb += sc[2]
-            s_bb += sc[3]
-            s_11 += sc[4]
-        sc[1] = (phase + n) % B
-        sc[2], sc[3], sc[4] = s_fb, s_bb, s_11
-        sc[5], sc[6] = g_f, g_b
-    sc[0] = beta
-    sc[7], sc[8] = p_b, p_1
+            s_fb, s_bb, s_11 = s_fb + sc[2], s_bb + sc[3], s_11 + sc[4]
+        sc[1], sc[2], sc[3], sc[4], sc[5], sc[6] = (phase + n) % B, s_fb, s_bb, s_11, g_f, g_b
+    sc[0], sc[7], sc[8] = beta, p_b, p_1
     _iir(eq_b, eq_a, y, zi)
     return y
 
@@ -215,6 +217,27 @@ def fir_pair_block(ext, hist, h):  # pragma: no cover - compiled
     return y
 
 
+@numba.njit(cache=True, inline="always")
+def _berouti_gain(s, ref, pn, gp):  # pragma: no cover - compiled
+    """``subtraction_gain`` (:mod:`enhancers.ss`) of one bin: power ``s``, SNR reference ``ref``, noise ``pn``."""
+    osub0, slope, osub_min, osub_max, subf, gain_max = gp[2], gp[3], gp[4], gp[5], gp[6], gp[7]
+    x_mag = math.sqrt(s)
+    snr_db = 10.0 * math.log10((ref if ref > TINY else TINY) / (pn if pn > TINY else TINY))
+    osub = _clip(osub0 - slope * snr_db, osub_min, osub_max)
+    root_pn = math.sqrt(pn if pn > 0.0 else 0.0)
+    y_mag = max(x_mag - math.sqrt(osub) * root_pn, subf * root_pn)
+    return y_mag / max(max(x_mag, y_mag / gain_max), TINY)
+
+
+@numba.njit(cache=True, inline="always")
+def _ring_min(ring, k):  # pragma: no cover - compiled
+    m = ring[0, k]
+    for w in range(1, ring.shape[0]):
+        if ring[w, k] < m:
+            m = ring[w, k]
+    return m
+
+
 @numba.njit(cache=True)
 def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no cover - compiled
     """Martin 1994 tracker and Berouti gain (:mod:`enhancers.ss`) for frames ``X`` (``(F, K)`` complex).
@@ -231,7 +254,6 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
     F, K = X.shape
     W = ring.shape[0]
     alpha, sub_len = gp[0], int(gp[1])
-    osub0, slope, osub_min, osub_max, subf, gain_max = gp[2], gp[3], gp[4], gp[5], gp[6], gp[7]
     Y = np.empty((F, K), dtype=np.complex128)
     G = np.empty((F, K))
     Pn_out = np.empty((F, K))
@@ -241,38 +263,21 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
         count += 1
         close = count == sub_len
         for k in range(K):
-            xr = X[f, k].real
-            xi = X[f, k].imag
-            s = xr * xr + xi * xi
-            p_prev = s if first else P[k]
-            p = (1.0 - alpha) * s + alpha * p_prev
+            s = X[f, k].real * X[f, k].real + X[f, k].imag * X[f, k].imag
+            p = (1.0 - alpha) * s + alpha * (s if first else P[k])
             P[k] = p
             a = actmin[k] if actmin[k] < p else p
             if close:  # the sub-window completes: its minimum enters the ring
                 for w in range(W - 1):
                     ring[w, k] = ring[w + 1, k]
                 ring[W - 1, k] = a
-                pmin = ring[0, k]
-                for w in range(1, W):
-                    if ring[w, k] < pmin:
-                        pmin = ring[w, k]
+                pmin = _ring_min(ring, k)
                 actmin[k] = np.inf
             else:
-                pmin = ring[0, k]
-                for w in range(1, W):
-                    if ring[w, k] < pmin:
-                        pmin = ring[w, k]
-                if a < pmin:
-                    pmin = a
+                pmin = min(_ring_min(ring, k), a)
                 actmin[k] = a
             pn = omin[k] * pmin
-            ref = p if smoothed else s
-            x_mag = math.sqrt(s)
-            snr_db = 10.0 * math.log10((ref if ref > TINY else TINY) / (pn if pn > TINY else TINY))
-            osub = _clip(osub0 - slope * snr_db, osub_min, osub_max)
-            root_pn = math.sqrt(pn if pn > 0.0 else 0.0)
-            y_mag = max(x_mag - math.sqrt(osub) * root_pn, subf * root_pn)
-            gk = y_mag / max(max(x_mag, y_mag / gain_max), TINY)
+            gk = _berouti_gain(s, p if smoothed else s, pn, gp)
             G[f, k] = gk
             Pn_out[f, k] = pn
             Y[f, k] = gk * X[f, k]
@@ -281,6 +286,79 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
         sc[1] = 1.0
     sc[0] = count
     return Y, G, Pn_out
+
+
+@numba.njit(cache=True, inline="always")
+def _ms2001_smooth(s, p, sn2, pb, pb2, qeqi, ac, t, cp):  # pragma: no cover - compiled
+    """Equations (3), (9)-(12), (20)-(23) for one frame ``s`` (K,): ``p``, ``pb``, ``pb2``, ``qeqi`` updated.
+
+    Returns ``(ac, qiav)``; ``sn2`` (the previous noise estimate) is read only.
+    """
+    K = s.shape[0]
+    aca, amax, aminh, bmax, snrexp, qeqimax, qeqimin = cp[0], cp[1], cp[2], cp[3], cp[4], cp[11], cp[12]
+    sum_y = 0.0
+    sum_sn2 = 0.0
+    sum_p = 0.0
+    for k in range(K):
+        sum_y += s[k]
+        sum_sn2 += sn2[k]
+        sum_p += p[k]
+    ratio = min(sum_p / max(sum_y, TINY), 1e100)  # bounded: a silent frame must not overflow
+    acb = 1.0 / (1.0 + (ratio - 1.0) ** 2)                                            # (9)
+    ac = aca * ac + (1.0 - aca) * max(acb, aca)                                        # (10)
+    floor_ah = min(aminh, max(sum_p / max(sum_sn2, TINY), TINY) ** snrexp)            # (12)
+    qsum = 0.0
+    for k in range(K):
+        a = max(amax * ac / (1.0 + (p[k] / max(sn2[k], TINY) - 1.0) ** 2), floor_ah)  # (11)
+        pk = a * p[k] + (1.0 - a) * s[k]                                                # (3)
+        p[k] = pk
+        b = min(a * a, bmax)
+        pb[k] = b * pb[k] + (1.0 - b) * pk                                              # (20)
+        pb2[k] = b * pb2[k] + (1.0 - b) * (pk * pk)                                     # (21)
+        q = min((pb2[k] - pb[k] * pb[k]) / max(2.0 * (sn2[k] * sn2[k]), TINY), qeqimax)
+        qeqi[k] = max(q, qeqimin / t)                                                   # (23)
+        qsum += qeqi[k]
+    return ac, qsum / K
+
+
+@numba.njit(cache=True, inline="always")
+def _ms2001_candidates(p, qeqi, qiav, actmin, actminsub, kmod, cp):  # pragma: no cover - compiled
+    """Bias-compensated candidates (17) against the sub-window minimum: ``actmin``, ``actminsub``, ``kmod`` updated."""
+    nv, nd, md, mv, av = int(cp[5]), int(cp[7]), cp[8], cp[9], cp[10]
+    bc = 1.0 + av * math.sqrt(qiav)
+    for k in range(p.shape[0]):
+        bmind = 1.0 + 2.0 * (nd - 1) * (1.0 - md) / (1.0 / qeqi[k] - 2.0 * md)       # (17)
+        bminv = 1.0 + 2.0 * (nv - 1) * (1.0 - mv) / (1.0 / qeqi[k] - 2.0 * mv)
+        cand = bc * p[k] * bmind
+        kmod[k] = cand < actmin[k]
+        if kmod[k]:
+            actmin[k] = cand
+            actminsub[k] = bc * p[k] * bminv
+
+
+@numba.njit(cache=True, inline="always")
+def _ms2001_switch(qiav, actmin, actminsub, pminu, actbuf, lminflag, kmod, ibuf, qith, nsms):  # pragma: no cover
+    """End of a sub-window: the buffer switch with local-minimum acceptance; returns the new ``ibuf``."""
+    nu = actbuf.shape[0]
+    ibuf = ibuf % nu + 1
+    j = 0
+    while j < qith.shape[0] - 1 and not qiav < qith[j]:  # qith ends with +inf
+        j += 1
+    nsm = nsms[j]
+    for k in range(actmin.shape[0]):
+        actbuf[ibuf - 1, k] = actmin[k]
+        m = actbuf[0, k]
+        for i in range(1, nu):
+            if actbuf[i, k] < m:
+                m = actbuf[i, k]
+        if lminflag[k] and not kmod[k] and actminsub[k] < nsm * m and actminsub[k] > m:
+            m = actminsub[k]
+            for i in range(nu):
+                actbuf[i, k] = m
+        pminu[k] = m
+        lminflag[k] = False
+        actmin[k] = np.inf
+    return ibuf
 
 
 @numba.njit(cache=True)
@@ -297,84 +375,27 @@ def ms2001_frames(S, p, sn2, pb, pb2, pminu, actmin, actminsub, actbuf, lminflag
     over bins run in index order here (numpy sums pairwise), a difference of rounding only.
     """
     F, K = S.shape
-    aca, amax, aminh, bmax, snrexp = cp[0], cp[1], cp[2], cp[3], cp[4]
-    nv, nu, nd, md, mv = int(cp[5]), int(cp[6]), int(cp[7]), cp[8], cp[9]
-    av, qeqimax, qeqimin = cp[10], cp[11], cp[12]
+    nv = int(cp[5])
     ac, subwc, ibuf, t = sc[0], int(sc[1]), int(sc[2]), int(sc[3])
     pout = np.empty((F, K))
     out = np.empty((F, K))
-    ah = np.empty(K)
     qeqi = np.empty(K)
     kmod = np.empty(K, dtype=np.bool_)
     for f in range(F):
         t += 1
-        sum_y = 0.0
-        sum_sn2 = 0.0
-        sum_p = 0.0
-        for k in range(K):
-            sum_y += S[f, k]
-            sum_sn2 += sn2[k]
-            sum_p += p[k]
-        sum_y = max(sum_y, TINY)
-        sum_sn2 = max(sum_sn2, TINY)
-        ratio = min(sum_p / sum_y, 1e100)  # bounded: a silent frame must not overflow
-        acb = 1.0 / (1.0 + (ratio - 1.0) ** 2)                                        # (9)
-        ac = aca * ac + (1.0 - aca) * max(acb, aca)                                    # (10)
-        snr = max(sum_p / sum_sn2, TINY)
-        floor_ah = min(aminh, snr ** snrexp)                                           # (12)
-        qsum = 0.0
-        for k in range(K):
-            a = amax * ac / (1.0 + (p[k] / max(sn2[k], TINY) - 1.0) ** 2)              # (11)
-            a = max(a, floor_ah)
-            ah[k] = a
-            pk = a * p[k] + (1.0 - a) * S[f, k]                                         # (3)
-            p[k] = pk
-            b = min(a * a, bmax)
-            pb[k] = b * pb[k] + (1.0 - b) * pk                                          # (20)
-            pb2[k] = b * pb2[k] + (1.0 - b) * (pk * pk)                                 # (21)
-            q = min((pb2[k] - pb[k] * pb[k]) / max(2.0 * (sn2[k] * sn2[k]), TINY), qeqimax)
-            q = max(q, qeqimin / t)                                                     # (23)
-            qeqi[k] = q
-            qsum += q
-        qiav = qsum / K
-        bc = 1.0 + av * math.sqrt(qiav)
-        for k in range(K):
-            bmind = 1.0 + 2.0 * (nd - 1) * (1.0 - md) / (1.0 / qeqi[k] - 2.0 * md)       # (17)
-            bminv = 1.0 + 2.0 * (nv - 1) * (1.0 - mv) / (1.0 / qeqi[k] - 2.0 * mv)
-            cand = bc * p[k] * bmind
-            kmod[k] = cand < actmin[k]
-            if kmod[k]:
-                actmin[k] = cand
-                actminsub[k] = bc * p[k] * bminv
+        ac, qiav = _ms2001_smooth(S[f], p, sn2, pb, pb2, qeqi, ac, t, cp)
+        _ms2001_candidates(p, qeqi, qiav, actmin, actminsub, kmod, cp)
         if 1 < subwc < nv:  # middle of a sub-window: allow a local minimum
             for k in range(K):
                 lminflag[k] = lminflag[k] or kmod[k]
                 pminu[k] = min(actminsub[k], pminu[k])
                 sn2[k] = pminu[k]
         elif subwc >= nv:  # end of a sub-window: buffer switch
-            ibuf = ibuf % nu + 1
-            j = 0
-            while j < qith.shape[0] - 1 and not qiav < qith[j]:  # qith ends with +inf
-                j += 1
-            nsm = nsms[j]
-            for k in range(K):
-                actbuf[ibuf - 1, k] = actmin[k]
-                m = actbuf[0, k]
-                for i in range(1, nu):
-                    if actbuf[i, k] < m:
-                        m = actbuf[i, k]
-                if (lminflag[k] and not kmod[k] and actminsub[k] < nsm * m and actminsub[k] > m):
-                    m = actminsub[k]
-                    for i in range(nu):
-                        actbuf[i, k] = m
-                pminu[k] = m
-                lminflag[k] = False
-                actmin[k] = np.inf
+            ibuf = _ms2001_switch(qiav, actmin, actminsub, pminu, actbuf, lminflag, kmod, ibuf, qith, nsms)
             subwc = 0
         subwc += 1
-        for k in range(K):
-            out[f, k] = sn2[k]
-            pout[f, k] = p[k]
+        out[f] = sn2
+        pout[f] = p
     sc[0], sc[1], sc[2], sc[3] = ac, subwc, ibuf, t
     return pout, out
 
