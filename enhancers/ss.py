@@ -272,10 +272,9 @@ class SpectralSubtraction(_SubtractionBase):
             omin, gp, smoothed = _ss_kernel_args(self.params)
             P = np.zeros(X.shape[2]) if tr.P is None else tr.P
             sc = np.array([tr.count, tr.P is not None], dtype=float)
-            Y, _, _ = sk.ss_ms1994_frames(X[0], P, tr.actmin, tr.ring, sc, omin, gp, smoothed)
+            sk.ss_ms1994_frames(X[0], P, tr.actmin, tr.ring, sc, omin, gp, smoothed)  # X <- G X
             tr.P, tr.count = P, int(sc[0])
             state.n_frames += X.shape[1]
-            X = Y[None]
         out, state.fb = fb.synthesis_step(X, block.shape[-1], fbs)
         return out
 

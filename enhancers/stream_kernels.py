@@ -240,7 +240,7 @@ def _ring_min(ring, k):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no cover - compiled
-    """Martin 1994 tracker and Berouti gain (:mod:`enhancers.ss`) for frames ``X`` (``(F, K)`` complex).
+    """Martin 1994 tracker and Berouti gain (:mod:`enhancers.ss`) applied to frames ``X`` (``(F, K)`` complex).
 
     P, actmin : (K,) smoothed power of the last frame and the open sub-window's minimum (updated)
     ring : (W, K) minima of the last W sub-windows, oldest first (updated)
@@ -248,15 +248,12 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
     omin : (K,) bias compensation; gp : [alpha, sub_len, osub0, osub_slope, osub_min, osub_max, subf, gain_max]
     smoothed : SNR from the smoothed power P (else from |X|^2)
 
-    Returns ``(Y, G, Pn)``: ``G X``, the gain and the noise PSD, each ``(F, K)``; the arithmetic
-    of ``_ms1994_one_frame`` and ``subtraction_gain`` per frame.
+    ``X`` is overwritten with ``G X`` (the frames to synthesise; nothing else is allocated), the
+    arithmetic of ``_ms1994_one_frame`` and ``subtraction_gain`` per frame.
     """
     F, K = X.shape
     W = ring.shape[0]
     alpha, sub_len = gp[0], int(gp[1])
-    Y = np.empty((F, K), dtype=np.complex128)
-    G = np.empty((F, K))
-    Pn_out = np.empty((F, K))
     count = int(sc[0])
     for f in range(F):
         first = sc[1] == 0.0
@@ -276,16 +273,11 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
             else:
                 pmin = min(_ring_min(ring, k), a)
                 actmin[k] = a
-            pn = omin[k] * pmin
-            gk = _berouti_gain(s, p if smoothed else s, pn, gp)
-            G[f, k] = gk
-            Pn_out[f, k] = pn
-            Y[f, k] = gk * X[f, k]
+            X[f, k] = _berouti_gain(s, p if smoothed else s, omin[k] * pmin, gp) * X[f, k]
         if close:
             count = 0
         sc[1] = 1.0
     sc[0] = count
-    return Y, G, Pn_out
 
 
 @numba.njit(cache=True, inline="always")
