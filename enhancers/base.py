@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -183,6 +184,21 @@ def check_component(component, shape: tuple[int, int]) -> np.ndarray:
     return c
 
 
+_F64 = np.dtype(np.float64)
+
+
+def _clean_block(block, n_channels: int) -> bool:
+    """True if ``block`` is already what :func:`check_signal` returns: a finite float64 ``(n_channels, n)`` array.
+
+    The per-block fast path of ``process_block`` (``check_signal`` costs ~10 us, a 10 ms block's
+    processing ~20 us): a finite sum of squares implies every sample is finite (a NaN or Inf makes
+    it NaN or Inf); anything else -- including a sum that overflows -- goes through ``check_signal``.
+    ``np.vdot`` (BLAS) raises no floating-point warnings on the way.
+    """
+    return (type(block) is np.ndarray and block.dtype == _F64 and block.ndim == 2
+            and block.shape[0] == n_channels and math.isfinite(np.vdot(block, block)))
+
+
 class Enhancer:
     """Base class for enhancers; subclasses set ``name``, ``version``, ``Params`` and implement
     ``tags`` and ``_process`` (and ``_init_state`` / ``_process_block`` when streaming).
@@ -257,9 +273,11 @@ class Enhancer:
 
         The passed ``state`` may be updated in place or replaced; always use the returned one.
         """
-        if not self.tags.streaming:
+        tags = self.tags
+        if not tags.streaming:
             raise NotImplementedError(f"enhancer {self.name!r} does not stream")
-        block = check_signal(block, name="block", n_channels=self.tags.channels_in, min_samples=0)
+        if not _clean_block(block, tags.channels_in):
+            block = check_signal(block, name="block", n_channels=tags.channels_in, min_samples=0)
         return self._process_block(block, state)
 
     def _init_state(self, fs: int) -> Any:  # pragma: no cover

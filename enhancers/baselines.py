@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,8 +39,8 @@ class Passthrough(Enhancer):
     class Params(Params):
         """No parameters."""
 
-    @property
-    def tags(self) -> Tags:
+    @functools.cached_property
+    def tags(self) -> Tags:  # no parameters, so the tags never change (cached: read per block)
         return Tags(channels_in=2, channels_out=1, streaming=True, latency_samples=0)
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
@@ -111,8 +112,8 @@ class DelayAndSum(Enhancer):
     def latency(self) -> int:
         return self.params.fir_taps // 2
 
-    @property
-    def tags(self) -> Tags:
+    @functools.cached_property
+    def tags(self) -> Tags:  # params are frozen, so the tags never change (cached: read per block)
         return Tags(
             channels_in=2,
             channels_out=1,
@@ -171,6 +172,11 @@ class DelayAndSum(Enhancer):
         return {"h": h, "history": np.zeros((2, h.shape[1] - 1))}
 
     def _process_block(self, block: np.ndarray, state: dict):
+        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+
+        if 0 < block.shape[1] <= sk.MAX_BLOCK:  # compiled FIR; the history is updated in place
+            hist = state["history"]
+            return sk.fir_pair_block(sk.extend(hist, block), hist, state["h"])[None, :], state
         h = state["h"]
         ext = np.concatenate([state["history"], block], axis=1)
         out = self._filter(ext, h)[None, :]

@@ -32,6 +32,10 @@ Given the beta sequence, the output is linear in (p1, p2):
 
 Latency: ``fd_half_len`` samples (both branches are delayed by it so a fractional ``T fs``
 can use a centred windowed sinc; whole-number ``T fs`` uses exact shifts).
+
+Streaming: blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run the compiled
+:func:`enhancers.stream_kernels.differential_block` (the same arithmetic, one call per block,
+the state updated in place); longer blocks and batch run the numpy step below, the reference.
 """
 
 from __future__ import annotations
@@ -79,7 +83,7 @@ class _DifferentialParams(Params):
 
 
 @dataclass
-class _DiffState:
+class _DiffState:  # the numpy step replaces it, the compiled step updates it in place
     fs: int
     history: np.ndarray          # (2, filters.history) last input samples
     beta: float
@@ -144,8 +148,29 @@ class _DifferentialBase(Enhancer):
         return y[None, :], _replace(state, history=new_hist, eq_zi=zi), betas
 
     def _process_block(self, block, state):
-        out, new, _ = self._step(block, state)
-        return out, new
+        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+
+        args = _kernel_args(type(self), self.params, state.fs) if 0 < block.shape[-1] <= sk.MAX_BLOCK else None
+        if args is None:
+            out, new, _ = self._step(block, state)
+            return out, new
+        return self._compiled_step(sk, block, state, args), state
+
+    def _compiled_step(self, sk, block, state: _DiffState, args) -> np.ndarray:
+        """The block through :func:`enhancers.stream_kernels.differential_block`; ``state`` updated in place."""
+        h, lat, eq_b, eq_a, pp, mode, gate, n_window = args
+        zi = _EMPTY if state.eq_zi is None else state.eq_zi
+        if state.g_hist is None and gate and n_window > 1:
+            state.g_hist = np.full(n_window - 1, np.inf)
+        ghist = _EMPTY if state.g_hist is None else state.g_hist
+        sc = np.array([state.beta, state.phase, state.s_fb, state.s_bb, state.s_11, state.g_f, state.g_b,
+                       state.p_b, state.p_1])
+        ext = sk.extend(state.history, block)
+        y = sk.differential_block(ext, state.history, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window)
+        (state.beta, phase, state.s_fb, state.s_bb, state.s_11, state.g_f, state.g_b, state.p_b,
+         state.p_1) = sc.tolist()
+        state.phase = int(phase)
+        return y[None, :]
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
         out, _, betas = self._step(x, self._init_state(fs))
@@ -164,6 +189,46 @@ class _DifferentialBase(Enhancer):
             return y[None, :]
 
         return Result(output=out, trace={"beta": beta_seq}, _replay=replay)
+
+
+_EMPTY = np.zeros(0)  # stands for "no equaliser" / "no gate window" in the compiled step (never written)
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_args(cls, params, fs: int):
+    """Arguments of :func:`enhancers.stream_kernels.differential_block` for ``cls(params)`` at ``fs``.
+
+    ``(h, latency, eq_b, eq_a, pp, mode, gate, n_window)`` with the equaliser's numerator padded
+    to the denominator's length, as ``lfilter`` pads it; None where the compiled step does not
+    cover the configuration (the sample variant with a gate window: its running minimum per
+    sample is left to the numpy step).
+    """
+    import enhancers.stream_kernels as sk
+
+    e = cls(params)
+    f = e.filters(fs)
+    p = params
+    if issubclass(cls, _FixedBase):
+        mode, gate, n_window = sk.FIXED, False, 0
+        pp = np.zeros(8)
+    else:
+        mode = sk.BLOCK_NLMS if p.update == "block" else sk.SAMPLE_NLMS
+        gate = p.adapt_gate_db is not None
+        per = int(p.block_len) if p.update == "block" else 1
+        n_window = int(math.ceil(float(p.gate_floor_s) * fs / per)) if p.gate_floor_s > 0 else 0
+        if gate and mode == sk.SAMPLE_NLMS:
+            return None
+        g = float(p.lam if p.gate_lam is None else p.gate_lam)
+        pp = np.array([p.mu, p.eps, p.beta_min, p.beta_max, p.block_len, p.lam, g,
+                       0.0 if p.adapt_gate_db is None else p.adapt_gate_db], dtype=float)
+    if f.eq_b is None:
+        eq_b = eq_a = _EMPTY
+    else:
+        eq_a = np.asarray(f.eq_a, dtype=float)
+        eq_b = np.zeros(eq_a.shape[0])
+        eq_b[:len(f.eq_b)] = f.eq_b
+    h = np.array(f.h_delayed, dtype=float)  # a writable copy: numba compiles read-only arrays separately
+    return h, int(f.latency), eq_b, eq_a, pp, mode, gate, n_window
 
 
 def _replace(state: _DiffState, **changes) -> _DiffState:

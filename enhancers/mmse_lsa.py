@@ -161,8 +161,8 @@ class MmseLsa(Enhancer):
         def xi_min(self) -> float:
             return 10.0 ** (self.xi_min_db / 10.0)
 
-    @property
-    def filterbank(self) -> FilterBank:
+    @functools.cached_property
+    def filterbank(self) -> FilterBank:  # params are frozen (cached: read per block)
         p = self.params
         return _filterbank(p.frame_len, p.hop, p.window)
 

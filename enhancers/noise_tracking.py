@@ -14,7 +14,9 @@ bins (algorithms.md section 6).  A batch call is the same step on all frames at 
 * :func:`ms2001_step` (Martin 2001, optimal smoothing and bias compensation), following
   the structure and defaults of VOICEBOX ``estnoisem`` (taca .0449, tamax .392, taminh
   .0133, tpfall .064, tbmax .0717 s, qeqmin 2, qeqmax 14, av 2.12, td 1.536 s, nu 8).
-  Its smoothing is recursive and nonlinear, so it loops over frames (vectorized over bins).
+  Its smoothing is recursive and nonlinear, so it loops over frames (vectorized over bins);
+  runs of at most ``SMALL_RUN`` frames (streaming) take the same loop compiled
+  (:func:`enhancers.stream_kernels.ms2001_frames`).
 """
 
 from __future__ import annotations
@@ -293,6 +295,18 @@ class MS2001Config:
         )
 
 
+    @functools.cached_property
+    def kernel_constants(self) -> np.ndarray:
+        """The derived constants in the order :func:`enhancers.stream_kernels.ms2001_frames` reads them."""
+        d = self.derived
+        return np.array([d["aca"], d["amax"], d["aminh"], d["bmax"], d["snrexp"], d["nv"], d["nu"], d["nd"],
+                         d["md"], d["mv"], self.av, d["qeqimax"], d["qeqimin"]], dtype=float)
+
+    @functools.cached_property
+    def kernel_qith(self) -> np.ndarray:
+        return np.array(self.qith, dtype=float)
+
+
 @dataclass
 class MS2001State:
     """State of :func:`ms2001_step` (names follow ``estnoisem``); ``p is None`` before the first frame."""
@@ -339,6 +353,11 @@ def ms2001_step(S: np.ndarray, state: MS2001State, cfg: MS2001Config) -> tuple[n
         st.actbuf = np.full((d["nu"], K), np.inf)
         st.ibuf = 0
         st.lminflag = np.zeros(K, dtype=bool)
+    if F <= SMALL_RUN:  # streaming: the compiled loop (enhancers.stream_kernels), unless switched off
+        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+
+        if sk.MAX_BLOCK > 0:
+            return _ms2001_compiled(sk, S, st, cfg)
     aca, amax, aminh, bmax = d["aca"], d["amax"], d["aminh"], d["bmax"]
     nv, nu, nd, md, mv = d["nv"], d["nu"], d["nd"], d["md"], d["mv"]
     p, ac, sn2, pb, pb2 = st.p, st.ac, st.sn2, st.pb, st.pb2
@@ -388,6 +407,17 @@ def ms2001_step(S: np.ndarray, state: MS2001State, cfg: MS2001Config) -> tuple[n
         pout[f] = p
     st.p, st.ac, st.sn2, st.pb, st.pb2 = p, ac, sn2, pb, pb2
     return pout, out, st
+
+
+def _ms2001_compiled(sk, S: np.ndarray, st: MS2001State, cfg: MS2001Config):
+    """:func:`ms2001_step`'s frame loop as :func:`enhancers.stream_kernels.ms2001_frames`; ``st`` (a copy) updated."""
+    sc = np.array([st.ac, st.subwc, st.ibuf, st.t], dtype=float)
+    P, Pn = sk.ms2001_frames(np.ascontiguousarray(S), st.p, st.sn2, st.pb, st.pb2, st.pminu, st.actmin,
+                             st.actminsub, st.actbuf, st.lminflag, sc, cfg.kernel_constants, cfg.kernel_qith,
+                             cfg.derived["nsms"])
+    ac, subwc, ibuf, t = sc.tolist()
+    st.ac, st.subwc, st.ibuf, st.t = ac, int(subwc), int(ibuf), int(t)
+    return P, Pn, st
 
 
 def track_ms2001(S: np.ndarray, *, frame_step_s: float, **constants) -> np.ndarray:

@@ -19,7 +19,10 @@ leave residual noise, never add energy; ``gain_max=1000`` restores the literal r
 The gain mask ``G`` is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
 ``Result.replay`` applies it to a component's STFT and synthesizes: exact shadow
 filtering (algorithms.md section 8).  Batch processing is the streaming step applied to
-the whole signal, so batch and streaming outputs agree for every block size.
+the whole signal, so batch and streaming outputs agree for every block size.  ``ss`` streams
+blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples through a compiled tracker
+and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame; the
+filter bank is the same); the numpy step stays the reference.
 """
 
 from __future__ import annotations
@@ -124,8 +127,8 @@ class _SubtractionBase(Enhancer):
 
     Params: ClassVar[type[Params]] = _SubtractionParams
 
-    @property
-    def filterbank(self) -> FilterBank:
+    @functools.cached_property
+    def filterbank(self) -> FilterBank:  # params are frozen (cached: read per block)
         p = self.params
         return _filterbank(p.frame_len, p.hop, p.window)
 
@@ -160,8 +163,19 @@ class _SubtractionBase(Enhancer):
         return out, new, G, Pn
 
     def _process_block(self, block: np.ndarray, state: _SSState):
+        if 0 < block.shape[-1] and self._compiled:
+            import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+
+            if block.shape[-1] <= sk.MAX_BLOCK:
+                return self._compiled_step(sk, block, state), state
         out, new, _, _ = self._step(block, state)
         return out, new
+
+    #: True if the subclass implements ``_compiled_step`` (a compiled tracker and gain per block).
+    _compiled: ClassVar[bool] = False
+
+    def _compiled_step(self, sk, block: np.ndarray, state: _SSState) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
 
     def _process(self, x: np.ndarray, fs: int) -> Result:
         out, _, G, Pn = self._step(x, self._init_state(fs))
@@ -244,9 +258,40 @@ class SpectralSubtraction(_SubtractionBase):
     def _tracker_init(self, fs: int, n_bins: int) -> MS1994State:
         return ms1994_init(n_bins, n_sub=self.params.n_sub)
 
+    _compiled: ClassVar[bool] = True
+
+    def _compiled_step(self, sk, block: np.ndarray, state: _SSState) -> np.ndarray:
+        """:meth:`_step` with the tracker and gain of :func:`enhancers.stream_kernels.ss_ms1994_frames`.
+
+        The filter bank is the same; ``state`` (and its tracker state) is updated in place.
+        """
+        fb = self.filterbank
+        X, fbs = fb.analysis_step(block, state.fb)
+        if X.shape[1]:
+            tr = state.tracker
+            omin, gp, smoothed = _ss_kernel_args(self.params)
+            P = np.zeros(X.shape[2]) if tr.P is None else tr.P
+            sc = np.array([tr.count, tr.P is not None], dtype=float)
+            sk.ss_ms1994_frames(X[0], P, tr.actmin, tr.ring, sc, omin, gp, smoothed)  # X <- G X
+            tr.P, tr.count = P, int(sc[0])
+            state.n_frames += X.shape[1]
+        out, state.fb = fb.synthesis_step(X, block.shape[-1], fbs)
+        return out
+
     def _tracker_step(self, S, state, fs):
         P, Pmin, new = ms1994_step(S, state, alpha=self.params.alpha, sub_len=self.params.sub_len)
         return P, self.omin * Pmin, new
+
+
+@functools.lru_cache(maxsize=32)
+def _ss_kernel_args(params: SpectralSubtraction.Params):
+    """``(omin (K,), gp, smoothed)`` of :func:`enhancers.stream_kernels.ss_ms1994_frames` for ``params``."""
+    omin = SpectralSubtraction(params).omin
+    n_bins = _filterbank(params.frame_len, params.hop, params.window).n_bins
+    omin = np.array(np.broadcast_to(omin, (n_bins,)), dtype=float)  # writable: numba types read-only apart
+    gp = np.array([params.alpha, params.sub_len, params.osub0, params.osub_slope, params.osub_min,
+                   params.osub_max, params.subf, params.gain_max], dtype=float)
+    return omin, gp, params.snr_def == "smoothed"
 
 
 class SpectralSubtractionMS2001(_SubtractionBase):

@@ -187,8 +187,8 @@ class StftEnhancer(Enhancer):
     channels_out: ClassVar[int] = 1
     Params: ClassVar[type[Params]] = StftParams
 
-    @property
-    def filterbank(self) -> FilterBank:
+    @functools.cached_property
+    def filterbank(self) -> FilterBank:  # params are frozen (cached: read per block)
         p = self.params
         return _filterbank(int(p.frame_len), int(p.hop), p.window)
 
