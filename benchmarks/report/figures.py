@@ -92,7 +92,7 @@ def _swept_noises(sel: Sequence[dict], vary: str) -> list:
 _FIGURE: list = []
 
 
-def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **subplots_kw):
+def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], reuse=None, **subplots_kw):
     """``(figure, axes)`` like ``pyplot.subplots``, on one reused headless figure at :data:`DPI`.
 
     Why reused and not pyplot's: a report draws ~15 figures, mostly of a few sizes, and
@@ -101,10 +101,19 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], 
     saved at, measures every label again).  Call :func:`save_figure` before the next
     :func:`new_figure`: it clears the figure.
 
+    ``reuse``: the axes the previous call returned (``squeeze=False``).  When they are still
+    on the figure and have this shape and size, they are emptied and returned instead of new
+    ones (new axes and their ticks cost as much as drawing them; a series of figures of one
+    layout, one per system or noise, only changes what is drawn on them).
+
     >>> fig, ax = new_figure(figsize=(2.0, 1.5))
     >>> fig2, axes = new_figure(1, 2, figsize=(3.0, 1.5), squeeze=False)
-    >>> fig2 is fig, axes.shape, bool(ax.figure is None or ax not in fig2.axes)
-    (True, (1, 2), True)
+    >>> fig2 is fig, axes.shape, ax in fig2.axes
+    (True, (1, 2), False)
+    >>> _ = axes[0, 0].plot([1, 2], [3, 4])
+    >>> _, again = new_figure(1, 2, figsize=(3.0, 1.5), squeeze=False, reuse=axes)
+    >>> again is axes, len(again[0, 0].lines)
+    (True, 0)
     """
     if not _FIGURE:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -113,12 +122,37 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], 
         _FIGURE.append(Figure())
         FigureCanvasAgg(_FIGURE[0])
     fig = _FIGURE[0]
+    same = reuse is not None and reuse.shape == (nrows, ncols) and fig.get_dpi() == DPI
+    if same and list(reuse.flat) == fig.axes and tuple(fig.get_size_inches()) == tuple(figsize):
+        _empty(fig, reuse)
+        return fig, reuse
     for ax in list(fig.axes):  # removed first: ``clear`` would reset each axes (as costly as a new one)
         fig.delaxes(ax)
     fig.clear()
     fig.set_dpi(DPI)
     fig.set_size_inches(figsize)
     return fig, fig.subplots(nrows, ncols, **subplots_kw)
+
+
+def _empty(fig, axes) -> None:
+    """Remove what was drawn on ``axes`` (keeping them and their ticks) and undo the layout."""
+    fig.subplotpars.reset()
+    fig.subplots_adjust()
+    for artist in [*fig.texts, *fig.legends]:  # the suptitle is one of the texts
+        artist.remove()
+    for ax in axes.flat:
+        for container in list(ax.containers):  # a bar or error-bar container removes its parts too
+            container.remove()
+        for artist in [*ax.lines, *ax.patches, *ax.texts, *ax.collections]:
+            artist.remove()
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        ax.set_title("")
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.__dict__.pop("_clip_noted", None)
+        ax.relim()
+        ax.autoscale_view()
 
 
 def save_figure(fig, path: Path) -> Path:
@@ -191,12 +225,13 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         geo = modal(rows, geo_keys)
         subset = [r for r in rows if tuple(r.get(k) for k in geo_keys) == geo]
         at_thesis = False
-    paths = []
+    paths, axes = [], None
     for noise in distinct(subset, "noise"):
         sel = [r for r in subset if r.get("noise") == noise]
         names = _enhancers(sel)
         colours, markers = _colours(names), _markers(names)
-        fig, (ax1, ax2) = new_figure(1, 2, figsize=(11, 4.2))
+        fig, axes = new_figure(1, 2, figsize=(11, 4.2), squeeze=False, reuse=axes)
+        ax1, ax2 = axes[0]
         drew_thesis = False
         for name in names:
             mine = [r for r in sel if r["enhancer"] == name]
