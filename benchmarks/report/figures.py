@@ -58,6 +58,9 @@ PALETTE = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#0
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
 #: Resolution of every saved figure (a test lowers it to render quickly).
 DPI = 110
+#: zlib level of the PNGs: the same pixels; 3 instead of Pillow's 6 encodes a report's 15
+#: figures in ~70 % of the CPU for ~4 % more bytes (measured on the ``phone`` report).
+PNG_COMPRESS_LEVEL = 3
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
@@ -164,7 +167,7 @@ def save_figure(fig, path: Path) -> Path:
         # applied: drop the engine.
         with matplotlib.rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
             fig.set_layout_engine(None)
-    fig.savefig(path, dpi=DPI)
+    fig.savefig(path, dpi=DPI, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return path
 
 
