@@ -120,12 +120,7 @@ def test_smoke_on_dask_matches_the_local_run(cluster, tmp_path, tmp_path_factory
     assert {r["status"] for r in on_dask.values()} == {"ok"}
     # the work really ran in the worker processes, not in this one
     assert all(not r["worker"].endswith(f":{os.getpid()}") for r in on_dask.values())
-    for key, r in local.items():
-        for m in METRICS:
-            a, b = r[m], on_dask[key][m]
-            assert (a is None) == (b is None), (key, m)
-            if a is not None:
-                np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=f"{key} {m}")
+    _assert_same_metrics(on_dask, local)
 
 
 def test_killing_a_worker_mid_sweep_loses_nothing(cluster, tmp_path):
@@ -184,13 +179,18 @@ def test_a_local_cluster_forks_its_workers_and_matches_the_local_run(tmp_path, t
     local = {(r["condition_id"], r["enhancer"]): r for r in _rows(local_dir / "results.sqlite")}
     assert on_dask.keys() == local.keys() and {r["status"] for r in on_dask.values()} == {"ok"}
     assert all(not r["worker"].endswith(f":{os.getpid()}") for r in on_dask.values())
+    _assert_same_metrics(on_dask, local)
+    assert len(list((out / "listen_audio").glob("*.npz"))) == len(load_sweep("smoke").conditions())
+
+
+def _assert_same_metrics(on_dask: dict, local: dict) -> None:
+    """Every metric of every row equal to the local run's to 1e-9 (None where it is None)."""
     for key, r in local.items():
         for m in METRICS:
             a, b = r[m], on_dask[key][m]
             assert (a is None) == (b is None), (key, m)
             if a is not None:
                 np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=f"{key} {m}")
-    assert len(list((out / "listen_audio").glob("*.npz"))) == len(load_sweep("smoke").conditions())
 
 
 def _worker_setting(key):
