@@ -198,6 +198,9 @@ class DaskExecutor:
                         processes=True,
                         host="127.0.0.1",
                         dashboard_address=None,
+                        # The scheduler's HTTP endpoint (health, metrics) on any free port:
+                        # its default 8787 warns on stderr whenever another cluster holds it.
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                     )
                 self._client = Client(self._cluster)
         except (OSError, TimeoutError) as exc:
