@@ -120,12 +120,7 @@ def test_smoke_on_dask_matches_the_local_run(cluster, tmp_path, tmp_path_factory
     assert {r["status"] for r in on_dask.values()} == {"ok"}
     # the work really ran in the worker processes, not in this one
     assert all(not r["worker"].endswith(f":{os.getpid()}") for r in on_dask.values())
-    for key, r in local.items():
-        for m in METRICS:
-            a, b = r[m], on_dask[key][m]
-            assert (a is None) == (b is None), (key, m)
-            if a is not None:
-                np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=f"{key} {m}")
+    _assert_same_metrics(on_dask, local)
 
 
 def test_killing_a_worker_mid_sweep_loses_nothing(cluster, tmp_path):
@@ -160,3 +155,49 @@ def test_killing_a_worker_mid_sweep_loses_nothing(cluster, tmp_path):
     assert n_at_kill < total, "the sweep finished before the kill: make it longer"
     assert len(rows) == total and len({(r["condition_id"], r["enhancer"]) for r in rows}) == total
     assert {r["status"] for r in rows} == {"ok"}, [r["error"] for r in rows if r["status"] != "ok"]
+
+
+def test_a_local_cluster_forks_its_workers_and_matches_the_local_run(tmp_path, tmp_path_factory):
+    """``--executor dask`` without a scheduler: a LocalCluster whose workers fork from a warm
+    fork server (LOCAL_CLUSTER_CONFIG); oracle: the local run, equal to 1e-9."""
+    from benchmarks.run.executors import DaskExecutor
+
+    ex = DaskExecutor(workers=1)
+    try:
+        (_, method), = ex.run(_worker_setting, ["distributed.worker.multiprocessing-method"])
+        (_, profile), = ex.run(_worker_setting, ["distributed.worker.profile.enabled"])
+        assert (method, profile) == ("forkserver", False)
+        (_, parent), = ex.run(_parent_pid, [None])
+        assert parent != os.getpid()  # forked by the fork server, not spawned by this process's nanny
+    finally:
+        ex.close()
+    out = tmp_path / "dask-local"
+    assert main(["bench", "run", "smoke", "--out", str(out), "--executor", "dask", "--workers", "2", "--no-report"]) == 0
+    code, local_dir = local_smoke_run(tmp_path_factory)
+    assert code == 0
+    on_dask = {(r["condition_id"], r["enhancer"]): r for r in _rows(out / "results.sqlite")}
+    local = {(r["condition_id"], r["enhancer"]): r for r in _rows(local_dir / "results.sqlite")}
+    assert on_dask.keys() == local.keys() and {r["status"] for r in on_dask.values()} == {"ok"}
+    assert all(not r["worker"].endswith(f":{os.getpid()}") for r in on_dask.values())
+    _assert_same_metrics(on_dask, local)
+    assert len(list((out / "listen_audio").glob("*.npz"))) == len(load_sweep("smoke").conditions())
+
+
+def _assert_same_metrics(on_dask: dict, local: dict) -> None:
+    """Every metric of every row equal to the local run's to 1e-9 (None where it is None)."""
+    for key, r in local.items():
+        for m in METRICS:
+            a, b = r[m], on_dask[key][m]
+            assert (a is None) == (b is None), (key, m)
+            if a is not None:
+                np.testing.assert_allclose(b, a, rtol=0, atol=1e-9, err_msg=f"{key} {m}")
+
+
+def _worker_setting(key):
+    import dask
+
+    return dask.config.get(key)
+
+
+def _parent_pid(_):
+    return os.getppid()

@@ -1,7 +1,10 @@
-"""Audio for the listening page: pick a few conditions, re-render them, write matched clips.
+"""Audio for the listening page: pick a few conditions, get their audio, write matched clips.
 
-The store holds numbers, not audio.  For each chosen condition this module re-renders the
-scene from the row's recorded ``condition_json`` with the runner's own functions
+The conditions are those the sweep saved clips for when all their rows are ok
+(:func:`benchmarks.run.listen.pick_conditions`); their clips, saved beside the store
+(:func:`benchmarks.run.listen.load_clips`), are only encoded here.  A store without them (an
+older sweep, clips of another run, other conditions asked for) is re-rendered: this module
+re-renders the scene from the row's recorded ``condition_json`` with the runner's own functions
 (:func:`benchmarks.run.worker.render_group`, :func:`benchmarks.run.worker.build_enhancer`, the
 channel choice of :func:`benchmarks.metrics.evaluate._select_channels`), on the data directory
 recorded in the store's ``runs`` table, with the enhancer params of the recorded sweep.
@@ -32,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.run.listen import DEFAULT_LISTEN_COUNT, LISTEN_AXES, load_clips, pick_conditions
 from scenesim.errors import ParameterError
 
 AUDIO_DIRNAME = "audio"
@@ -39,8 +43,6 @@ AUDIO_DIRNAME = "audio"
 TARGET_LEVEL_DBFS = -26.0
 #: Largest absolute sample value allowed after matching (a common gain enforces it).
 PEAK_LIMIT = 0.95
-#: Conditions given audio by default.
-DEFAULT_LISTEN_COUNT = 6
 
 
 @dataclass(frozen=True)
@@ -108,49 +110,19 @@ class DataReproError(RuntimeError):
 # -- choosing conditions -------------------------------------------------------------------
 
 
-def _spread(n: int) -> list[int]:
-    """Indices 0..n-1 in the order lowest, middle, highest, then the rest (n >= 1)."""
-    first = [0, (n - 1) // 2, n - 1]
-    order = list(dict.fromkeys(first))
-    return order + [i for i in range(n) if i not in order]
-
-
-#: The swept axes the picker spreads over (those with more than one value in the rows).
-LISTEN_AXES = ("rt60_s", "distance_m", "noise", "snr_in_db")
-
-
 def choose_conditions(rows: Sequence[Mapping[str, Any]], *, count: int) -> list[str]:
     """``count`` condition ids spread over the swept axes that matter for listening
-    (:data:`LISTEN_AXES`: RT60, talker distance, noise, input SNR; ok rows only).
-
-    Every value of every axis is heard before any is heard twice
-    (:func:`benchmarks.run.sweep.stratified`); among equally new picks the extremes of a numeric
-    axis come first (lowest, middle, highest).  For a combination of axis values the
-    condition with the lowest seed, first in the store's order, is used.  Values drawn per
-    seed (a talker distance drawn in a range) are not an axis.
+    (:data:`LISTEN_AXES`: RT60, talker distance, noise, input SNR; ok rows only), as
+    :func:`benchmarks.run.listen.pick_conditions` chooses them: the conditions whose clips
+    the sweep saved when every row is ok.
 
     >>> rows = [{"condition_id": f"{n}{s}", "noise": n, "snr_in_db": s, "seed": 0, "status": "ok"}
     ...         for n in ("wind", "babble") for s in (0, 5, 10)]
     >>> choose_conditions(rows, count=4)
-    ['babble0', 'wind0', 'wind5', 'babble10']
+    ['babble0', 'wind0', 'babble10', 'wind5']
     """
-    from benchmarks.report.tables import distinct, drawn_keys
-    from benchmarks.run.sweep import stratified
-
     ok = [r for r in rows if r.get("status") == "ok" and r.get("snr_in_db") is not None and r.get("condition_id")]
-    axes = [a for a in LISTEN_AXES if len(distinct(ok, a)) > 1 and not any(a in drawn_keys(r) for r in ok)]
-    best: dict[tuple, tuple[int, int, str]] = {}
-    for k, r in enumerate(ok):
-        key = tuple(r.get(a) for a in axes)
-        cand = (int(r.get("seed") or 0), k, str(r["condition_id"]))
-        if key not in best or cand < best[key]:
-            best[key] = cand
-    # Extremes first: each axis value's place in the lowest/middle/highest order.
-    rank = {a: {v: _spread(len(distinct(ok, a))).index(i) for i, v in enumerate(distinct(ok, a))} for a in axes}
-    keys = sorted(best, key=lambda k: (sum(rank[a][v] for a, v in zip(axes, k)), best[k]))
-    picked = stratified(keys, count, axes, value=lambda k, a: k[axes.index(a)])
-    picked.sort(key=keys.index)
-    return [best[k][2] for k in picked]
+    return pick_conditions(ok, count=count)
 
 
 def listen_for(row: Mapping[str, Any]) -> str:
@@ -385,7 +357,8 @@ def _label(row: Mapping[str, Any]) -> str:
 def build_listening(
     rows: Sequence[Mapping[str, Any]], report_dir: Path, store_dir: Path, options: ListenOptions
 ) -> Listening:
-    """Choose conditions, re-render them and write their clips under ``report_dir/audio``.
+    """Choose conditions, load their saved clips (else re-render them) and write the matched
+    clips under ``report_dir/audio``.
 
     Never raises for a condition that cannot be reproduced: its notes say why.
     """
@@ -412,15 +385,17 @@ def build_listening(
             by_cond.setdefault(str(r["condition_id"]), {})[str(r["enhancer"])] = r
     fmt = audio_format()
     audio_dir.mkdir(parents=True, exist_ok=True)
-    out = []
+    out, n_saved = [], 0
     for cid in ids:
         crow = by_cond.get(cid)
         if not crow:
             out.append(ListenCondition(cid, cid, notes=("no 'ok' rows with this condition_id in the store",)))
             continue
         label = _label(next(iter(crow.values())))
+        saved = load_clips(store_dir, crow)  # saved by the sweep: nothing to re-render
         try:
-            signals, fs, notes = render_condition_cached(crow, data_dir=data_dir, params=params)
+            signals, fs, notes = (*saved, []) if saved else render_condition_cached(crow, data_dir=data_dir, params=params)
+            n_saved += saved is not None
         except Exception as exc:
             out.append(ListenCondition(cid, label, rows=crow, notes=(f"{type(exc).__name__}: {exc}",)))
             continue
@@ -432,14 +407,17 @@ def build_listening(
         scaled, gains = match_loudness(signals, fs)
         clips = _write_clips(scaled, fs, gains, cid, audio_dir, fmt)
         out.append(ListenCondition(cid, label, tuple(clips), crow, tuple(notes), listen_for(next(iter(crow.values())))))
+    data = data_dir or "the built-in data (artificial voice, synthesized noise)"
     general = (
-        f"Data re-rendered from {data_dir or 'the built-in data (artificial voice, synthesized noise)'}.",
+        f"Clips of {n_saved} condition(s) saved by the sweep, of {len(out) - n_saved} re-rendered from {data}."
+        if n_saved else f"Data re-rendered from {data}.",
     )
     return Listening(tuple(out), general, f"{fmt[1]} {fmt[2]}")
 
 
 __all__ = [
     "DEFAULT_LISTEN_COUNT",
+    "LISTEN_AXES",
     "Clip",
     "ListenCondition",
     "ListenOptions",

@@ -24,12 +24,11 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from benchmarks.metrics.attribution import SELF_NOISE_ARRAY_GAIN_DB  # noqa: E402
 from benchmarks.metrics.g160 import G160_COLUMNS, G160_TARGETS  # noqa: E402
-from benchmarks.report.figures import save_figure  # noqa: E402
+from benchmarks.report.figures import new_figure, save_figure  # noqa: E402
 from benchmarks.report.tables import aggregate, fmt, markdown_table, num, write_csv  # noqa: E402
 from benchmarks.thesis import reference as T  # noqa: E402
 
@@ -193,9 +192,10 @@ def octave_summary(rows: Sequence[dict]) -> list[dict[str, Any]]:
 def octave_figures(summary: Sequence[dict], report_dir: Path) -> list[Path]:
     """One PNG per system: per-octave SNR-I per noise beside the bounds of its noise field."""
     paths = []
+    axes = None
     for name in T.system_order(r["enhancer"] for r in summary):
         recs = [r for r in summary if r["enhancer"] == name]
-        fig, axes = plt.subplots(1, len(recs), figsize=(4.2 * len(recs), 3.4), squeeze=False, sharey=True)
+        fig, axes = new_figure(1, len(recs), figsize=(4.2 * len(recs), 3.4), squeeze=False, sharey=True, reuse=axes)
         for ax, rec in zip(axes[0], recs):
             x = np.arange(len(rec["centre_hz"]))
             ax.bar(x, rec["snr_i_db"], 0.6, color="tab:blue", label="SNR-I (mean)")

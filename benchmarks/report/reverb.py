@@ -27,9 +27,8 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 
-from benchmarks.report.figures import MARKERS, PALETTE, interval_words, save_figure  # noqa: E402
+from benchmarks.report.figures import MARKERS, PALETTE, interval_words, new_figure, save_figure  # noqa: E402
 from benchmarks.report.tables import (  # noqa: E402
     SMALL_N_TEXT,
     aggregate_over_seeds,
@@ -154,7 +153,7 @@ def _table(recs: Sequence[dict], keys: Sequence[tuple[str, str]]) -> str:
 def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, path: Path, logx: bool) -> Path:
     names = T.system_order(r["enhancer"] for r in recs)
     groups = distinct(recs, group_key) if group_key else [None]
-    fig, axes = plt.subplots(1, 4, figsize=(16, 3.8))
+    fig, axes = new_figure(1, 4, figsize=(16, 3.8))
     styles = ("-", "--", ":", "-.")
     specs = (("sinr_i_db", "SINR-I (dB)"), ("drr_gain_db", "DRR gain (dB)"), ("c50_gain_db", "C50 gain (dB)"), ("srmr_out", "SRMR of the output"))
     for ax, (f, label) in zip(axes, specs):
@@ -184,7 +183,7 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
 
 
 def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(4.8, 4.2))
+    fig, ax = new_figure(figsize=(4.8, 4.2))
     # The speech-octave means (what the target is) when the rows have them, else broadband.
     t_key, e_key = ("t_speech_s", "edt_speech_s") if any(r.get("t_speech_s") is not None for r in acoustics) \
         else ("t30_s", "edt_s")

@@ -23,9 +23,8 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 
-from benchmarks.report.figures import PALETTE, interval_words, save_figure  # noqa: E402
+from benchmarks.report.figures import PALETTE, interval_words, new_figure, save_figure  # noqa: E402
 from benchmarks.report.measures import SELF_NOISE_TEXT  # noqa: E402
 from benchmarks.report.tables import (  # noqa: E402
     SMALL_N_TEXT,
@@ -96,7 +95,7 @@ def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) ->
 def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
     noises = sorted({r["noise"] for r in summary})
     names = T.system_order(r["enhancer"] for r in summary)
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, axes = new_figure(1, 2, figsize=(12, 4.2))
     width = 0.8 / max(len(names), 1)
     for panel, (f, thesis_f, label) in enumerate(
         (("snr_i_db", "thesis_snr_i_db", "SNR-I (dB)"), ("pesq_nb_raw_out", "thesis_pesq_out", "output PESQ (raw P.862)"))
@@ -218,8 +217,8 @@ def _mismatch_figure(agg: Sequence[dict], field: str, ylabel: str, path: Path) -
     names = T.system_order(r["enhancer"] for r in agg if r["enhancer"] != "passthrough") or ["passthrough"]
     phases = sorted({r["nominal_phase_deg"] for r in agg})
     noises = sorted({r["self_noise"] for r in agg}, key=lambda v: (v != "none", v))  # noiseless: solid
-    fig, axes = plt.subplots(len(geos), len(names), figsize=(4.2 * len(names), 3.2 * len(geos)), squeeze=False)
-    cmap = plt.get_cmap("viridis")
+    fig, axes = new_figure(len(geos), len(names), figsize=(4.2 * len(names), 3.2 * len(geos)), squeeze=False)
+    cmap = matplotlib.colormaps["viridis"]
     for i, geo in enumerate(geos):
         for j, name in enumerate(names):
             ax = axes[i, j]

@@ -12,7 +12,8 @@ of its task.
   to ``os.cpu_count()``); a dead worker process breaks the pool, which raises
   :class:`ExecutorError` (rerunning resumes).
 * :class:`DaskExecutor` -- ``distributed.Client(scheduler)`` when an address is given,
-  otherwise a ``LocalCluster`` of single-threaded worker processes on 127.0.0.1.  Dask
+  otherwise a ``LocalCluster`` of single-threaded worker processes on 127.0.0.1, forked
+  from a warm fork server like the local pool's (:data:`LOCAL_CLUSTER_CONFIG`).  Dask
   reschedules the tasks of a worker that dies; a task that kills
   ``distributed.scheduler.allowed-failures`` workers comes back as ``KilledWorker``.
 """
@@ -145,13 +146,36 @@ def _environ(values: dict[str, str]):
             os.environ.pop(k, None)
 
 
+#: Dask settings of the local cluster (``benchmarks.perf.dask_overhead`` measures them).
+#: Its worker processes are forked from a fork server that imported the sweep's modules once
+#: (Dask's default spawns each one fresh, and each then imports numpy, scipy, the enhancers
+#: and the metrics again: about half of the ~12 s CPU a 2-worker ``smoke`` run on Dask cost
+#: beyond the serial run).  Idle housekeeping is slowed from Dask's defaults, which cost
+#: ~0.1 CPU-second per second of the run with 2 workers (~0.017 after): the event-loop
+#: health check of every server (20 ms), the psutil system monitor (500 ms) and the nannies'
+#: memory monitor (100 ms; a worker past its memory limit is still stopped within 1 s).
+#: The workers' statistical profiler (a stack sample every 10 ms, for the dashboard, which
+#: is off) is off.  A cluster given by address keeps its own settings.
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.worker.multiprocessing-method": "forkserver",
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+
+
 class DaskExecutor:
-    """Run tasks on Dask: an existing scheduler (``scheduler="tcp://host:port"``) or a local cluster."""
+    """Run tasks on Dask: an existing scheduler (``scheduler="tcp://host:port"``) or a local cluster.
+
+    ``preload``: modules the local cluster's fork server imports once (ignored with a scheduler).
+    """
 
     name = "dask"
 
-    def __init__(self, workers: int | None = None, scheduler: str | None = None):
+    def __init__(self, workers: int | None = None, scheduler: str | None = None, *, preload: Sequence[str] = ()):
         try:
+            import dask
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - dask is an optional extra
             raise ExecutorError(
@@ -166,13 +190,18 @@ class DaskExecutor:
                 self.workers = len(self._client.scheduler_info().get("workers", {})) or None
             else:
                 self.workers = _check_workers(workers)
-                self._cluster = LocalCluster(
-                    n_workers=self.workers,
-                    threads_per_worker=1,
-                    processes=True,
-                    host="127.0.0.1",
-                    dashboard_address=None,
-                )
+                with dask.config.set(LOCAL_CLUSTER_CONFIG), _environ(SINGLE_THREAD_ENV):
+                    _forkserver_preload(preload)
+                    self._cluster = LocalCluster(
+                        n_workers=self.workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        host="127.0.0.1",
+                        dashboard_address=None,
+                        # The scheduler's HTTP endpoint (health, metrics) on any free port:
+                        # its default 8787 warns on stderr whenever another cluster holds it.
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                    )
                 self._client = Client(self._cluster)
         except (OSError, TimeoutError) as exc:
             self.close()
@@ -205,6 +234,14 @@ class DaskExecutor:
             self._cluster.close()
 
 
+def _forkserver_preload(modules: Sequence[str]) -> None:
+    """Have the fork server Dask's nannies fork workers from import ``modules`` and Dask (whose
+    own list, set on first use, is replaced: set after it).  Only before the fork server starts."""
+    from distributed.utils import get_mp_context
+
+    get_mp_context().set_forkserver_preload(["distributed", "benchmarks.run.executors", *modules])
+
+
 def _check_workers(workers: int | None) -> int:
     if workers is None:
         return os.cpu_count() or 1
@@ -223,7 +260,7 @@ def make_executor(
     """The executor called ``executor`` (``"local"`` or ``"dask"``).
 
     ``local`` with one worker runs in this process (:class:`SerialExecutor`).  ``scheduler``
-    is only meaningful with ``dask``; ``preload`` only with a local pool.
+    is only meaningful with ``dask``; ``preload`` only with a local pool or cluster.
     """
     if executor not in EXECUTORS:
         raise ParameterError("executor", executor, "one of " + ", ".join(map(repr, EXECUTORS)))
@@ -232,4 +269,4 @@ def make_executor(
             raise ParameterError("scheduler", scheduler, "no scheduler with the local executor (use --executor dask)")
         n = _check_workers(workers)
         return SerialExecutor() if n == 1 else LocalExecutor(n, preload=preload)
-    return DaskExecutor(workers, scheduler)
+    return DaskExecutor(workers, scheduler, preload=preload)

@@ -17,13 +17,14 @@ import os
 import sys
 import time
 import warnings
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from benchmarks.excinfo import exc_text as _exc_text
 from benchmarks.run.executors import EXECUTORS, make_executor
+from benchmarks.run.listen import CLIPS_KEY, DEFAULT_LISTEN_COUNT, listen_ids, save_clips
 from benchmarks.run.progress import LineProgress
 from benchmarks.run.signals import interrupted
 from benchmarks.run.sweep import Condition, Sweep, load_sweep, stratified
@@ -82,8 +83,10 @@ def plan_conditions(
     conditions: Sequence[Condition],
     done: set[tuple[str, str]],
     data_dir: str | None,
+    save_audio: Collection[str] = (),
 ) -> list[ConditionTask]:
-    """One task per condition that misses at least one enhancer's row, in sweep order."""
+    """One task per condition that misses at least one enhancer's row, in sweep order; the
+    conditions whose ids are in ``save_audio`` return their listening clips too."""
     specs = [
         EnhancerSpec(name, json.dumps(dict(sweep.enhancer_params.get(name, {})), sort_keys=True))
         for name in sweep.enhancers
@@ -92,7 +95,7 @@ def plan_conditions(
     for cond in conditions:
         missing = tuple(s for s in specs if (cond.id, s.name) not in done)
         if missing:
-            tasks.append(ConditionTask(cond.to_json(), missing, data_dir))
+            tasks.append(ConditionTask(cond.to_json(), missing, data_dir, save_audio=cond.id in save_audio))
     return tasks
 
 
@@ -127,6 +130,7 @@ def run_sweep(
     report: Callable[..., Iterable[Path]] | None = None,
     progress: bool = True,
     new_version: bool = False,
+    listen_count: int = DEFAULT_LISTEN_COUNT,
 ) -> RunSummary:
     """Run ``sweep`` (a :class:`Sweep`, preset name or TOML path) into ``out_dir/results.sqlite``.
 
@@ -156,6 +160,9 @@ def run_sweep(
         version (without it such a run is refused, :mod:`benchmarks.run.versioning`).
     progress : bool
         Show a progress bar (only when stderr is a terminal).
+    listen_count : int
+        Save the audio of this many conditions for the report's listening page
+        (:func:`benchmarks.run.listen.listen_ids`, under ``out_dir/listen_audio``; 0: none).
 
     Returns
     -------
@@ -173,7 +180,7 @@ def run_sweep(
     with ResultStore.open(out_dir) as store:
         version = check_version(store, sweep, out_dir=out_dir, new_version=new_version)
         done = store.done_keys(include_errors=not retry_errors)
-        tasks = plan_conditions(sweep, conditions, done, data_dir)
+        tasks = plan_conditions(sweep, conditions, done, data_dir, save_audio=set(listen_ids(conditions, listen_count)))
         _warn_changed_data(store, data_dir, n_kept=len(conditions) - len(tasks))
         run_id = store.start_run(
             sweep=sweep.name,
@@ -264,8 +271,11 @@ def _execute(ex, tasks, store: ResultStore, tally: _Tally, *, run_id: str, versi
     with _progress(len(tasks), name, enabled=progress, workers=ex.workers) as bar:
         for unit, outcome in ex.run(run_unit, units):
             for rows in _rows_of(unit, outcome, run_id, version):
+                clips = rows[0].pop(CLIPS_KEY, None) if rows else None
                 # one transaction per condition: a kill never leaves half of one
                 tally.add(rows, store.write_rows(rows))
+                if clips is not None:
+                    save_clips(store.path.parent, rows, clips)
             bar.update(len(unit))
             if tally.n_errors:
                 bar.set_postfix(errors=tally.n_errors, refresh=False)

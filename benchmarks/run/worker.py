@@ -67,6 +67,8 @@ class ConditionTask:
     condition_json: str
     enhancers: tuple[EnhancerSpec, ...]
     data_dir: str | None = None
+    #: Return the condition's clips for the listening page with its rows (:mod:`benchmarks.run.listen`).
+    save_audio: bool = False
 
     @property
     def condition(self) -> Condition:
@@ -267,7 +269,7 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
             t0 = time.perf_counter()
             images, speech_source, noise_source = render_group(cond, task.data_dir)
             parts, acoustics = group_parts(cond, task.data_dir)
-            rendered = images.mix(cond.snr_db)
+            rendered = mixed = images.mix(cond.snr_db)
             if parts is not None and parts.reverberant and cond.reference != "direct":
                 # Target = direct + early (the sweep's early window) for every intrusive metric.
                 rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
@@ -278,23 +280,31 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
         except Exception as exc:
             text = _exc_text(exc)
             return [{**base, "enhancer": s.name, "status": "error", "error": f"scene failed: {text}"} for s in task.enhancers]
+        outputs = {}  # first output channel per system, for the listening page
         for spec in task.enhancers:
             row = dict(base)
             try:
                 enhancer = build_enhancer(spec, cond)
                 row["enhancer_spec"] = json.dumps(enhancer.spec, sort_keys=True, default=str)
                 row["enhancer_version"] = str(enhancer.version)
-                probe = _FirstOutput(enhancer) if cond.metrics else enhancer
+                probe = _FirstOutput(enhancer) if cond.metrics or task.save_audio else enhancer
                 row.update(evaluate_enhancer(probe, rendered, input_metrics=inputs, speech_parts=parts))
                 _add_optional_output_metrics(row, cond, rendered, inputs, probe)
             except Exception as exc:
                 row.update(status="error", error=f"enhancer failed: {_exc_text(exc)}")
             row["enhancer"] = spec.name  # the sweep's name for it (e.g. "eb@1"), not the class's
             rows.append(row)
+            if task.save_audio and row.get("status") == "ok" and getattr(probe, "output0", None) is not None:
+                outputs[spec.name] = probe.output0
     notes = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
     if notes:
         for row in rows:
             row["warnings"] = "\n".join(notes)
+    if task.save_audio and rows:
+        from benchmarks.run.listen import CLIPS_KEY, worker_clips
+
+        # The reference as mixed (direct path), as the report's re-render gives it.
+        rows[0][CLIPS_KEY] = worker_clips(cond.fs, mixed.reference, mixed.mixture, outputs)
     return rows
 
 
