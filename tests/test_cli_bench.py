@@ -113,3 +113,16 @@ def test_thesis_babble_0db_ordering_on_real_data(shared_data_dir, tmp_path):
     assert rows["eb"]["speech_source"].startswith("local:")
     snr_i = {k: r["snr_i_db"] for k, r in rows.items()}
     assert snr_i["eb-ss"] > snr_i["eb"] > snr_i["ss"] > 0, snr_i
+
+
+def test_seed_offset_is_applied_once(tmp_path):
+    """``--seed S`` offsets the sweep's seeds by S once (it used to be applied by the CLI and again
+    by ``run_sweep``: seed 0 became 2 S), with and without ``--seeds N``."""
+    sweep = tmp_path / "s.toml"
+    sweep.write_text('[axes]\nenhancers = ["passthrough"]\nnoise = ["white"]\nsnr_db = [10]\n'
+                     '[fixed]\nduration_s = 1.0\nmetrics = []\n', "utf-8")
+    for extra, expected in (([], {3}), (["--seeds", "2"], {3, 4})):
+        out = tmp_path / f"o{len(extra)}"
+        args = ["bench", "run", str(sweep), "--out", str(out), "--workers", "1", "--no-report", "--seed", "3"]
+        assert main([*args, *extra]) == 0
+        assert {r["seed"] for r in _rows(out)} == expected

@@ -121,7 +121,7 @@ def _run(args) -> int:
         check_store_readable(out / "results.sqlite")  # a damaged store: say so before writing to it
         _mark_killed_runs(out)
         summary = run_sweep(
-            sweep,
+            args.sweep,  # as typed: run_sweep applies --seed/--seeds/--limit itself (once)
             out,
             executor=args.executor,
             workers=args.workers,
