@@ -3,47 +3,87 @@
 Rooms with an own image-source method (cross-checked against pyroomacoustics), free-field
 propagation, the endfire mic pair, noise fields and scene rendering.  Signals are
 ``(n_channels, n_samples)`` float arrays with ``fs`` in Hz passed beside them.
+
+The names below are loaded on first use (PEP 562): ``import scenesim`` alone costs nothing
+beyond this file, so a command that needs one module (``scenesim bench report``) does not pay for
+scipy.signal (~1.5 s) through ``scenesim.audio``.
 """
 
-from scenesim.audio import read_audio, resample, write_audio
-from scenesim.errors import (
-    ConfigError,
-    DataError,
-    MetricError,
-    ParameterError,
-    PluginError,
-    ScenesimError,
-)
-from scenesim.room.air import AirAbsorption
-from scenesim.room.bands import OCTAVE_CENTERS_HZ, octave_rt60
-from scenesim.room.cache import cached_rir
-from scenesim.room.calibration import calibrate_room
-from scenesim.room.crosscheck import compare_with_pyroomacoustics
-from scenesim.room.ism import image_source_rir
-from scenesim.room.moving import render_moving_source
-from scenesim.room.render import room_rir
-from scenesim.room.rt60 import eyring_rt60, measure_rt60, sabine_rt60
-from scenesim.room.shoebox import ShoeBox
-from scenesim.scene.compose import (
-    NoiseSource,
-    RenderedScene,
-    Scene,
-    SceneImages,
-    SourcePlacement,
-    render_images,
-    render_scene,
-)
-from scenesim.scene.fractional_delay import delay_signal, fractional_delay_filter
-from scenesim.scene.freefield import plane_wave, point_source
-from scenesim.scene.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS, MicPair, unit_vector
-from scenesim.scene.mixing import mix_at_snr, noise_gain_for_snr
-from scenesim.scene.noise_fields import (
-    corcos_coherence,
-    diffuse_noise,
-    incoherent_noise,
-    sensor_noise,
-    wind_noise,
-)
-from scenesim.scene.sensors import MicResponse, SensorModel, SensorTolerance
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
+
+# public name -> the module that defines it
+_SOURCES = {
+    "read_audio": "scenesim.audio",
+    "resample": "scenesim.audio",
+    "write_audio": "scenesim.audio",
+    "ConfigError": "scenesim.errors",
+    "DataError": "scenesim.errors",
+    "MetricError": "scenesim.errors",
+    "ParameterError": "scenesim.errors",
+    "PluginError": "scenesim.errors",
+    "ScenesimError": "scenesim.errors",
+    "AirAbsorption": "scenesim.room.air",
+    "OCTAVE_CENTERS_HZ": "scenesim.room.bands",
+    "octave_rt60": "scenesim.room.bands",
+    "cached_rir": "scenesim.room.cache",
+    "calibrate_room": "scenesim.room.calibration",
+    "compare_with_pyroomacoustics": "scenesim.room.crosscheck",
+    "image_source_rir": "scenesim.room.ism",
+    "render_moving_source": "scenesim.room.moving",
+    "room_rir": "scenesim.room.render",
+    "eyring_rt60": "scenesim.room.rt60",
+    "measure_rt60": "scenesim.room.rt60",
+    "sabine_rt60": "scenesim.room.rt60",
+    "ShoeBox": "scenesim.room.shoebox",
+    "NoiseSource": "scenesim.scene.compose",
+    "RenderedScene": "scenesim.scene.compose",
+    "Scene": "scenesim.scene.compose",
+    "SceneImages": "scenesim.scene.compose",
+    "SourcePlacement": "scenesim.scene.compose",
+    "render_images": "scenesim.scene.compose",
+    "render_scene": "scenesim.scene.compose",
+    "delay_signal": "scenesim.scene.fractional_delay",
+    "fractional_delay_filter": "scenesim.scene.fractional_delay",
+    "plane_wave": "scenesim.scene.freefield",
+    "point_source": "scenesim.scene.freefield",
+    "DEFAULT_SPACING_M": "scenesim.scene.geometry",
+    "SPEED_OF_SOUND_MPS": "scenesim.scene.geometry",
+    "MicPair": "scenesim.scene.geometry",
+    "unit_vector": "scenesim.scene.geometry",
+    "mix_at_snr": "scenesim.scene.mixing",
+    "noise_gain_for_snr": "scenesim.scene.mixing",
+    "corcos_coherence": "scenesim.scene.noise_fields",
+    "diffuse_noise": "scenesim.scene.noise_fields",
+    "incoherent_noise": "scenesim.scene.noise_fields",
+    "sensor_noise": "scenesim.scene.noise_fields",
+    "wind_noise": "scenesim.scene.noise_fields",
+    "MicResponse": "scenesim.scene.sensors",
+    "SensorModel": "scenesim.scene.sensors",
+    "SensorTolerance": "scenesim.scene.sensors",
+}
+
+__all__ = sorted(_SOURCES)
+
+
+def __getattr__(name: str):
+    """Import the module that defines ``name`` on first access and cache the value here.
+
+    >>> import scenesim
+    >>> scenesim.ShoeBox.__name__
+    'ShoeBox'
+    """
+    try:
+        module = _SOURCES[name]
+    except KeyError:
+        raise AttributeError(f"module 'scenesim' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_SOURCES])

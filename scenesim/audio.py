@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 import soundfile as sf
-from scipy import signal as sps
 
 from scenesim.errors import DataError, ParameterError
 from scenesim.files import chmod_as_umask
@@ -42,6 +41,8 @@ def resample(x, fs_from: int, fs_to: int) -> np.ndarray:
     if fs_from == fs_to:
         return arr.copy()
     g = math.gcd(fs_from, fs_to)
+    from scipy import signal as sps  # lazy: scipy.signal costs ~1.5 s to import (scipy 1.17)
+
     return sps.resample_poly(arr, fs_to // g, fs_from // g, axis=-1)
 
 

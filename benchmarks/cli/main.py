@@ -41,14 +41,19 @@ def _version() -> str:
     return __version__
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: tuple[str, ...] = _COMMANDS) -> argparse.ArgumentParser:
+    """The parser with the sub-commands ``commands`` (default: all of them).
+
+    >>> sorted(build_parser(("rir",))._subparsers._group_actions[0].choices)
+    ['rir']
+    """
     parser = argparse.ArgumentParser(
         prog="scenesim",
         description="Simulate hands-free phone scenes and benchmark speech enhancers.",
     )
     parser.add_argument("--version", action="version", version=f"scenesim {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in _COMMANDS:
+    for name in commands:
         importlib.import_module(f"benchmarks.cli.{name}").add_parser(sub)
     return parser
 
@@ -71,9 +76,20 @@ def _attach_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
+def _commands_for(argv: list[str]) -> tuple[str, ...]:
+    """Only the sub-command typed, when it is the first word: importing every sub-command's
+    module costs ~1.5 s CPU (``simulate`` pulls in scipy.signal), more than a short command
+    itself.  Anything else (``--help``, a typo) gets them all, so argparse can list them.
+
+    >>> _commands_for(["bench", "report", "DIR"]), len(_commands_for(["--help"])) == len(_COMMANDS)
+    (('bench',), True)
+    """
+    return (argv[0],) if argv and argv[0] in _COMMANDS else _COMMANDS
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(_attach_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    argv = _attach_negative_values(sys.argv[1:] if argv is None else list(argv))
+    args = build_parser(_commands_for(argv)).parse_args(argv)
     try:
         with cli_warnings():
             return int(args.func(args) or 0)

@@ -19,7 +19,6 @@ All signals are 1-D, one length, latency-aligned (the caller's job); ``fs`` in H
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import fftconvolve, firwin2, welch
 
 from scenesim.errors import MetricError
 
@@ -54,6 +53,10 @@ def long_term_psd(x, fs: int) -> tuple[np.ndarray, np.ndarray]:
     (1025, True)
     """
     x = np.asarray(x, dtype=np.float64)
+    from scipy.signal import (
+        welch,  # lazy: scipy.signal costs ~1 s to import; the store needs none of it
+    )
+
     return welch(x, fs=fs, nperseg=_nperseg(fs, x.size), detrend=False)
 
 
@@ -71,6 +74,8 @@ def spectral_fir(s_in, s_out, fs: int) -> np.ndarray:
     ok = p_in > RESPONSE_FLOOR * max(float(p_in.max()), 1e-300)
     gain = np.zeros_like(p_in)
     gain[ok] = np.sqrt(p_out[ok] / p_in[ok])
+    from scipy.signal import firwin2  # lazy, as welch above
+
     return firwin2(2 * (f.size - 1) + 1, f, gain, fs=fs, window=None)
 
 
@@ -92,6 +97,8 @@ def snr_i_spectral_db(s_in, n_in, s_out, fs: int) -> float:
     s_in, n_in = np.asarray(s_in, dtype=np.float64), np.asarray(n_in, dtype=np.float64)
     h = spectral_fir(s_in, s_out, fs)
     # Full convolutions: every sample of both filtered signals counts, edges included.
+    from scipy.signal import fftconvolve  # lazy, as welch above
+
     return float(_snr_db(fftconvolve(s_in, h), fftconvolve(n_in, h)) - _snr_db(s_in, n_in))
 
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy import signal as sps
 
 from scenesim.errors import ParameterError
 
@@ -74,6 +73,7 @@ def gammatone_sos(cf_hz: float, fs: int) -> np.ndarray:
     ``exp(-bT +- j 2 pi cf T)`` shared by four sections whose zeros are
     ``cos(arg) +- sqrt(3 +- 2^1.5) sin(arg)`` (scaled), the cascade normalised at ``cf``.
     """
+    from scipy import signal as sps  # lazy: ~1 s to import; the store and report need none of it
     t = 1.0 / fs
     erb = cf_hz / _EAR_Q + _MIN_BW
     b = 1.019 * 2.0 * np.pi * erb
@@ -96,6 +96,7 @@ def _gammatone_bank(fs: int) -> tuple[np.ndarray, ...]:
 
 def _envelopes(x: np.ndarray, fs: int) -> np.ndarray:
     """Hilbert envelopes ``(23, n16)`` of the gammatone bands, highest band first."""
+    from scipy import signal as sps  # lazy: ~1 s to import; the store and report need none of it
     bands = np.empty((N_COCHLEAR, x.size))
     for i, sos in enumerate(_gammatone_bank(int(fs))):
         bands[i] = sps.sosfilt(sos, x)
@@ -123,6 +124,7 @@ def _frame_energies(p: np.ndarray, w2: np.ndarray, hop: int, n_frames: int) -> n
 
 def modulation_energy(x, fs: int) -> np.ndarray:
     """Frame-averaged modulation energies ``(23 acoustic bands, highest first; 8 modulation bands)``."""
+    from scipy import signal as sps  # lazy: ~1 s to import; the store and report need none of it
     env = _envelopes(x, fs)
     win = int(np.ceil(FRAME_S * fs))
     hop = int(np.ceil(HOP_S * fs))
