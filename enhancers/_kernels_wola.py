@@ -92,3 +92,52 @@ def synthesize(Y1, Y2, two, ws, rev, tw, y1, y2):  # pragma: no cover - compiled
         y1[t] = re[t] / n * ws[t]
         if two:
             y2[t] = -im[t] / n * ws[t]
+
+
+@numba.njit(cache=True)
+def block_frames(block, tail, wst):  # pragma: no cover - compiled
+    """``(ext, first_end, m)`` of a streaming block ``(C, b)``: ``ext = [tail | block]`` and the ``m`` frames
+    completed in it, the frame ending at block index ``e = first_end + j R`` spanning ``ext[:, e:e + N]``
+    (enhancers.filterbank's frames; ``wst`` = (samples received modulo R, queued samples, R))."""
+    n1 = tail.shape[1]
+    r = wst[2]
+    b = block.shape[1]
+    ext = np.empty((block.shape[0], n1 + b))
+    ext[:, :n1] = tail
+    ext[:, n1:] = block
+    first_end = (r - 1 - wst[0]) % r  # frame ends (block-relative) where (phase + j + 1) % R == 0
+    m = 0 if first_end >= b else (b - 1 - first_end) // r + 1
+    return ext, first_end, m
+
+
+@numba.njit(cache=True)
+def output_buffer(queue, wst, m):  # pragma: no cover - compiled
+    """``(C, ql + m R)`` buffer of the block's output samples, starting with the ``ql`` queued ones."""
+    ql = wst[1]
+    buf = np.empty((queue.shape[0], ql + m * wst[2]))
+    buf[:, :ql] = queue[:, :ql]
+    return buf
+
+
+@numba.njit(cache=True)
+def overlap_add(y, c, j, ola, buf, wst):  # pragma: no cover - compiled
+    """Overlap-add the synthesised frame ``j`` ``y (N,)`` of channel ``c``: its first ``R`` samples are
+    complete (into ``buf``), the rest become the partial sums ``ola[c]`` (``y`` is overwritten)."""
+    r = wst[2]
+    ql = wst[1]
+    for t in range(y.shape[0] - r):
+        y[t] += ola[c, t]
+    buf[c, ql + j * r:ql + (j + 1) * r] = y[:r]
+    ola[c] = y[r:]
+
+
+@numba.njit(cache=True)
+def finish_block(ext, buf, m, tail, queue, wst):  # pragma: no cover - compiled
+    """Keep the state after a block of ``b`` samples (``tail``, ``queue``, ``wst``) and return its ``(C, b)`` output."""
+    r = wst[2]
+    b = ext.shape[1] - tail.shape[1]
+    new_ql = wst[1] + m * r - b
+    queue[:, :new_ql] = buf[:, b:]
+    tail[:, :] = ext[:, b:]
+    wst[0], wst[1] = (wst[0] + b) % r, new_ql
+    return buf[:, :b]

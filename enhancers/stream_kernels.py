@@ -26,8 +26,17 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_ms1994_frames",
-           "warm_up"]
+from enhancers._kernels_wola import (
+    analyze_pair,
+    block_frames,
+    finish_block,
+    output_buffer,
+    overlap_add,
+    synthesize,
+)
+
+__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_block",
+           "ss_ms1994_frames", "warm_up"]
 
 #: Longest block (samples) run through the compiled steps; longer blocks (batch) take the numpy path.
 MAX_BLOCK = 4096
@@ -278,6 +287,35 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
             count = 0
         sc[1] = 1.0
     sc[0] = count
+
+
+@numba.njit(cache=True)
+def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, omin, gp,
+             smoothed):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
+    """``ss``'s streaming block ``(1, b)`` end to end: the filter bank's analysis, :func:`ss_ms1994_frames`,
+    synthesis and overlap-add (the WOLA kernels of :mod:`enhancers._kernels_wola`, ``N`` a power of two).
+
+    Returns the ``(1, b)`` output; the filter-bank state ``tail (1, N - 1)``, ``ola (1, N - R)``,
+    ``queue (1, R)``, ``wst`` (as ``enhancers._kernels_robust.run_block``'s) and the tracker's
+    (as :func:`ss_ms1994_frames`') are updated in place.  Consecutive frames share one complex FFT.
+    """
+    n = win.shape[1]
+    r = wst[2]
+    ext, first_end, m = block_frames(block, tail, wst)
+    X = np.empty((m + 1, n // 2 + 1), dtype=np.complex128)  # one spare row: an odd frame's FFT partner
+    for j in range(0, m, 2):
+        e = first_end + j * r
+        f = e + r if j + 1 < m else e
+        analyze_pair(ext[0, e:e + n], ext[0, f:f + n], win[0], rev, tw, X[j], X[j + 1])
+    ss_ms1994_frames(X[:m], P, actmin, ring, sc, omin, gp, smoothed)  # X <- G X
+    buf = output_buffer(queue, wst, m)
+    y = np.empty((2, n))
+    for j in range(0, m, 2):
+        synthesize(X[j], X[j + 1], j + 1 < m, win[1], rev, tw, y[0], y[1])
+        overlap_add(y[0], 0, j, ola, buf, wst)
+        if j + 1 < m:
+            overlap_add(y[1], 0, j + 1, ola, buf, wst)
+    return finish_block(ext, buf, m, tail, queue, wst)
 
 
 @numba.njit(cache=True, inline="always")
