@@ -141,3 +141,17 @@ def finish_block(ext, buf, m, tail, queue, wst):  # pragma: no cover - compiled
     tail[:, :] = ext[:, b:]
     wst[0], wst[1] = (wst[0] + b) % r, new_ql
     return buf[:, :b]
+
+
+@numba.njit(cache=True)
+def synthesize_frames(Y, m, ws, rev, tw, ola, queue, wst):  # pragma: no cover - compiled
+    """Synthesis and overlap-add of one channel's ``m`` frames ``Y (>= m + 1, K)`` (two frames per
+    inverse FFT; row ``m`` is scratch): the ``(1, ql + m R)`` buffer for :func:`finish_block`."""
+    buf = output_buffer(queue, wst, m)
+    y = np.empty((2, ws.shape[0]))
+    for j in range(0, m, 2):
+        synthesize(Y[j], Y[j + 1], j + 1 < m, ws, rev, tw, y[0], y[1])
+        overlap_add(y[0], 0, j, ola, buf, wst)
+        if j + 1 < m:
+            overlap_add(y[1], 0, j + 1, ola, buf, wst)
+    return buf

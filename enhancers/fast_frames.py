@@ -26,6 +26,7 @@ always pass on the state a call returns, never reuse an old one.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -33,7 +34,8 @@ import numpy as np
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import bin_omega
 
-__all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state", "wola_state"]
+__all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state", "wola_back", "wola_from",
+           "wola_maker", "wola_state"]
 
 #: False: new streams (and batch runs) use the numpy reference instead of the compiled kernel.
 COMPILED = True
@@ -185,6 +187,38 @@ def wola_state(filterbank, n_out: int, n_in: int = 2) -> tuple | None:
     win = np.stack([filterbank.analysis_window, filterbank.synthesis_window])
     return (np.zeros((n_in, n - 1)), np.zeros((n_out, n - r)), np.zeros((n_out, r)),
             np.array([0, r - 1, r], dtype=np.int64), win, rev, tw)
+
+
+def wola_maker(filterbank, n_out: int, n_in: int = 2):
+    """A callable returning fresh :func:`wola_state` arrays, or None when the fused step does not apply.
+
+    >>> from enhancers.filterbank import FilterBank
+    >>> wola_maker(FilterBank(frame_len=12, hop=4), 1) is None
+    True
+    """
+    if wola_state(filterbank, n_out, n_in) is None:
+        return None
+    return functools.partial(wola_state, filterbank, n_out, n_in)
+
+
+def wola_from(wola: tuple, analysis, synthesis) -> tuple:
+    """``wola`` (:func:`wola_state`'s arrays) filled with a stream's filter-bank state: ``analysis``'s
+    ``tail`` and ``phase``, ``synthesis``' ``ola`` and ``queue`` (:class:`enhancers.filterbank.FilterBankState`)."""
+    tail, ola, queue, wst = wola[:4]
+    tail[:], ola[:] = analysis.tail, synthesis.ola
+    ql = synthesis.queue.shape[1]  # always R - 1 - phase < R
+    queue[:, :ql] = synthesis.queue
+    wst[0], wst[1] = analysis.phase, ql
+    return wola
+
+
+def wola_back(wola: tuple):
+    """The :class:`enhancers.filterbank.FilterBankState` held by ``wola``'s arrays (copies; the inverse of
+    :func:`wola_from`): its ``tail``/``phase`` serve an analysis step, its ``ola``/``queue`` a synthesis step."""
+    from enhancers.filterbank import FilterBankState
+
+    tail, ola, queue, wst = wola[:4]
+    return FilterBankState(tail=tail.copy(), phase=int(wst[0]), ola=ola.copy(), queue=queue[:, :wst[1]].copy())
 
 
 def new_state(p, fs: int, n_bins: int, *, delay: float, filterbank, band: slice | None = None,

@@ -115,21 +115,20 @@ class _SSState:
 
 def _fuse(state: _SSState, wola: tuple) -> tuple:
     """``ss_block``'s state arrays from ``state`` (``wola``: fresh arrays from ``fast_frames.wola_state``)."""
-    tail, ola, queue, wst = wola[:4]
-    fb, tr = state.fb, state.tracker
-    tail[:], ola[:] = fb.tail, fb.ola
-    ql = fb.queue.shape[1]  # always R - 1 - phase < R
-    queue[:, :ql] = fb.queue
-    wst[0], wst[1] = fb.phase, ql
+    from enhancers.fast_frames import wola_from
+
+    tr = state.tracker
     P = np.zeros(wola[4].shape[1] // 2 + 1) if tr.P is None else tr.P  # n_bins = N/2 + 1
-    return (*wola, P, tr.actmin, tr.ring, np.array([tr.count, tr.P is not None], dtype=float))
+    return (*wola_from(wola, state.fb, state.fb), P, tr.actmin, tr.ring,
+            np.array([tr.count, tr.P is not None], dtype=float))
 
 
 def _unfuse(state: _SSState) -> None:
     """Move the fused kernel's state back into ``state.fb`` / ``state.tracker`` (before a numpy step)."""
-    tail, ola, queue, wst = state.fused[:4]
+    from enhancers.fast_frames import wola_back
+
     P, sc = state.fused[7], state.fused[10]
-    state.fb = FilterBankState(tail=tail.copy(), phase=int(wst[0]), ola=ola.copy(), queue=queue[:, :wst[1]].copy())
+    state.fb = wola_back(state.fused)
     state.tracker.P = P if sc[1] else None
     state.tracker.count = int(sc[0])
     state.fused = None
@@ -290,10 +289,9 @@ class SpectralSubtraction(_SubtractionBase):
     @functools.cached_property
     def _wola(self):
         """Fresh fused-kernel filter-bank arrays (a callable), None when the frame length is not a power of two."""
-        from enhancers.fast_frames import wola_state
+        from enhancers.fast_frames import wola_maker
 
-        fb = self.filterbank
-        return None if wola_state(fb, 1, n_in=1) is None else functools.partial(wola_state, fb, 1, n_in=1)
+        return wola_maker(self.filterbank, 1, n_in=1)
 
     def _compiled_step(self, sk, block: np.ndarray, state: _SSState) -> np.ndarray:
         """:meth:`_step` with the tracker and gain of :func:`enhancers.stream_kernels.ss_ms1994_frames`.

@@ -26,16 +26,9 @@ import math
 import numba
 import numpy as np
 
-from enhancers._kernels_wola import (
-    analyze_pair,
-    block_frames,
-    finish_block,
-    output_buffer,
-    overlap_add,
-    synthesize,
-)
+from enhancers._kernels_wola import analyze_pair, block_frames, finish_block, synthesize_frames
 
-__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_block",
+__all__ = ["MAX_BLOCK", "beam_block", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_block",
            "ss_ms1994_frames", "warm_up"]
 
 #: Longest block (samples) run through the compiled steps; longer blocks (batch) take the numpy path.
@@ -308,14 +301,28 @@ def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, om
         f = e + r if j + 1 < m else e
         analyze_pair(ext[0, e:e + n], ext[0, f:f + n], win[0], rev, tw, X[j], X[j + 1])
     ss_ms1994_frames(X[:m], P, actmin, ring, sc, omin, gp, smoothed)  # X <- G X
-    buf = output_buffer(queue, wst, m)
-    y = np.empty((2, n))
-    for j in range(0, m, 2):
-        synthesize(X[j], X[j + 1], j + 1 < m, win[1], rev, tw, y[0], y[1])
-        overlap_add(y[0], 0, j, ola, buf, wst)
-        if j + 1 < m:
-            overlap_add(y[1], 0, j + 1, ola, buf, wst)
-    return finish_block(ext, buf, m, tail, queue, wst)
+    return finish_block(ext, synthesize_frames(X, m, win[1], rev, tw, ola, queue, wst), m, tail, queue, wst)
+
+
+@numba.njit(cache=True)
+def beam_block(block, tail, ola, queue, wst, win, rev, tw,
+               wc):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
+    """A fixed beamformer's streaming block ``(2, b)`` -> ``(1, b)``: the filter bank's analysis (the two
+    channels of a frame share one complex FFT), ``Y = wc[0] X[0] + wc[1] X[1]`` per bin (``wc (2, K)``),
+    synthesis (two frames per inverse FFT) and overlap-add; state as :func:`ss_block`'s, ``tail (2, N - 1)``.
+    """
+    n = win.shape[1]
+    K = n // 2 + 1
+    r = wst[2]
+    ext, first_end, m = block_frames(block, tail, wst)
+    X = np.empty((2, K), dtype=np.complex128)
+    Y = np.empty((m + 1, K), dtype=np.complex128)  # one spare row: an odd frame's inverse-FFT partner
+    for j in range(m):
+        e = first_end + j * r
+        analyze_pair(ext[0, e:e + n], ext[1, e:e + n], win[0], rev, tw, X[0], X[1])
+        for k in range(K):
+            Y[j, k] = wc[0, k] * X[0, k] + wc[1, k] * X[1, k]
+    return finish_block(ext, synthesize_frames(Y, m, win[1], rev, tw, ola, queue, wst), m, tail, queue, wst)
 
 
 @numba.njit(cache=True, inline="always")

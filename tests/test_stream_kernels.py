@@ -36,6 +36,8 @@ CASES = [
     ("ss-ms2001", {}, "ms2001_frames"),
     ("ss-ms2001", {"td": 0.3, "nu": 3, "snr_def": "instant"}, "ms2001_frames"),
     ("mmse-lsa", {}, "ms2001_frames"),
+    ("superdirective", {}, "beam_block"),
+    ("superdirective", {"look_az_deg": 40.0, "wng_min_db": -3.0, "frame_len": 128, "hop": 32}, "beam_block"),
 ]
 
 
@@ -83,12 +85,14 @@ def test_compiled_step_equals_numpy_step(name, kwargs, kernel, rng, monkeypatch)
         assert abs(fast_state.beta - ref_state.beta) <= REL_TOL
 
 
-def test_ss_fused_state_survives_switching_to_numpy_and_back(rng, monkeypatch):
-    """``ss``'s fused kernel keeps the filter bank's and tracker's state in its own arrays; blocks longer
-    than ``MAX_BLOCK`` (numpy path) in between must hand that state over both ways.  Oracle: the numpy
-    step on every block (``MAX_BLOCK = 0``), 1e-12 of the output peak; both paths really ran."""
-    e = make("ss")
-    x = _one_mic_input(rng)
+@pytest.mark.parametrize("name", ["ss", "superdirective"])
+def test_fused_state_survives_switching_to_numpy_and_back(name, rng, monkeypatch):
+    """The fused kernels (``ss_block``, ``beam_block``) keep the filter bank's (and ss's tracker's) state
+    in their own arrays; blocks longer than ``MAX_BLOCK`` (numpy path) in between must hand that state
+    over both ways.  Oracle: the numpy step on every block (``MAX_BLOCK = 0``), 1e-12 of the output peak;
+    both paths really ran (block sizes on both sides of ``MAX_BLOCK``)."""
+    e = make(name)
+    x = _two_mic_input(rng, n=3 * FS) if e.tags.channels_in == 2 else _one_mic_input(rng)
     n = x.shape[-1]
     edges = np.unique(np.concatenate([[0], np.minimum(np.cumsum(rng.integers(1, 700, size=n // 200)), n), [n]]))
     monkeypatch.setattr(sk, "MAX_BLOCK", 350)
