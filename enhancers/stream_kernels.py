@@ -458,3 +458,10 @@ def warm_up() -> None:
     from enhancers.noise_tracking import MS2001Config, ms2001_init, ms2001_step
 
     ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))
+    from enhancers.fast_frames import wola_state
+    from enhancers.filterbank import FilterBank
+
+    fb = FilterBank(frame_len=32, hop=16)
+    ss_block(x[:1].copy(), *wola_state(fb, 1, n_in=1), np.zeros(17), np.full(17, np.inf), np.full((3, 17), np.inf),
+             np.zeros(2), np.ones(17), gp, True)
+    beam_block(x.copy(), *wola_state(fb, 1), np.ones((2, 17), dtype=complex))
