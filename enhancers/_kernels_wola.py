@@ -1,5 +1,7 @@
 """Compiled (numba) WOLA analysis / synthesis of one frame, for the fused streaming step of
-:mod:`enhancers.fast_frames` (the same filter bank as :class:`enhancers.filterbank.FilterBank`).
+:mod:`enhancers.fast_frames` and of ``ss_block`` / ``beam_block`` in :mod:`enhancers.stream_kernels` (the
+same filter bank as :class:`enhancers.filterbank.FilterBank`; :func:`block_frames` ... :func:`finish_block`
+are the block's framing and overlap-add bookkeeping, the state layout of ``fast_frames.wola_state``).
 
 Why: a 10 ms block is one or two frames, and numpy's ``rfft`` / ``irfft`` calls plus the filter
 bank's bookkeeping cost more per block than the frames' processing.  Here a radix-2 FFT (frame

@@ -21,8 +21,10 @@ The gain mask ``G`` is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
 filtering (algorithms.md section 8).  Batch processing is the streaming step applied to
 the whole signal, so batch and streaming outputs agree for every block size.  ``ss`` streams
 blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples through a compiled tracker
-and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame; the
-filter bank is the same); the numpy step stays the reference.
+and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame); with
+a power-of-two frame length (the default 256) the filter bank runs in the same numba call
+(:func:`enhancers.stream_kernels.ss_block`: one call per block, issue 20), otherwise it is the
+numpy one.  The numpy step stays the reference (``MAX_BLOCK = 0``).
 """
 
 from __future__ import annotations

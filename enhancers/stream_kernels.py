@@ -8,7 +8,8 @@ of at most :data:`MAX_BLOCK` samples (the Martin 2001 tracker: runs of at most 4
 its numpy step for longer ones (batch), so batch == concatenated streaming is also a check of
 the kernel against the reference, and ``tests/test_stream_kernels.py`` compares the two paths
 on random multi-block input (1e-12 relative).  ``MAX_BLOCK = 0`` routes every block through
-the numpy reference.
+the numpy reference.  ``ss_block`` and ``beam_block`` also run the WOLA filter bank inside the call
+(the FFT kernels of :mod:`enhancers._kernels_wola`, shared with :mod:`enhancers.fast_frames`).
 
 ``cache=True`` keeps the machine code under ``__pycache__`` (or ``$NUMBA_CACHE_DIR``), so only
 the first call in a fresh install pays the JIT (measured by ``benchmarks/perf/stream_jit.py``).

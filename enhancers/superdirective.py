@@ -21,6 +21,10 @@ mismatch.
 
 Directivity index and WNG of any weights: :func:`directivity_db`, :func:`wng_db`.
 
+Streaming blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run in one numba call
+(:func:`enhancers.stream_kernels.beam_block`: analysis, weights, synthesis; power-of-two frame
+lengths); the numpy filter-bank steps stay the reference (``MAX_BLOCK = 0``) and batch's path.
+
 Reference: H. Cox, R. M. Zeskind, T. Kooij, "Practical supergain", IEEE TASSP 34(3), 1986;
 H. Cox, R. M. Zeskind, M. M. Owen, "Robust adaptive beamforming", IEEE TASSP 35(10), 1987;
 J. Bitzer, K. U. Simmer, "Superdirective microphone arrays", in Microphone Arrays (2001).
