@@ -105,8 +105,11 @@ def block_frames(block, tail, wst):  # pragma: no cover - compiled
     r = wst[2]
     b = block.shape[1]
     ext = np.empty((block.shape[0], n1 + b))
-    ext[:, :n1] = tail
-    ext[:, n1:] = block
+    for c in range(block.shape[0]):  # loops, not slice assignments: numba compiles these far faster
+        for t in range(n1):
+            ext[c, t] = tail[c, t]
+        for t in range(b):
+            ext[c, n1 + t] = block[c, t]
     first_end = (r - 1 - wst[0]) % r  # frame ends (block-relative) where (phase + j + 1) % R == 0
     m = 0 if first_end >= b else (b - 1 - first_end) // r + 1
     return ext, first_end, m
@@ -117,7 +120,9 @@ def output_buffer(queue, wst, m):  # pragma: no cover - compiled
     """``(C, ql + m R)`` buffer of the block's output samples, starting with the ``ql`` queued ones."""
     ql = wst[1]
     buf = np.empty((queue.shape[0], ql + m * wst[2]))
-    buf[:, :ql] = queue[:, :ql]
+    for c in range(queue.shape[0]):
+        for t in range(ql):
+            buf[c, t] = queue[c, t]
     return buf
 
 
@@ -129,8 +134,10 @@ def overlap_add(y, c, j, ola, buf, wst):  # pragma: no cover - compiled
     ql = wst[1]
     for t in range(y.shape[0] - r):
         y[t] += ola[c, t]
-    buf[c, ql + j * r:ql + (j + 1) * r] = y[:r]
-    ola[c] = y[r:]
+    for t in range(r):
+        buf[c, ql + j * r + t] = y[t]
+    for t in range(y.shape[0] - r):
+        ola[c, t] = y[r + t]
 
 
 @numba.njit(cache=True)
@@ -139,8 +146,12 @@ def finish_block(ext, buf, m, tail, queue, wst):  # pragma: no cover - compiled
     r = wst[2]
     b = ext.shape[1] - tail.shape[1]
     new_ql = wst[1] + m * r - b
-    queue[:, :new_ql] = buf[:, b:]
-    tail[:, :] = ext[:, b:]
+    for c in range(queue.shape[0]):
+        for t in range(new_ql):
+            queue[c, t] = buf[c, b + t]
+    for c in range(tail.shape[0]):
+        for t in range(tail.shape[1]):
+            tail[c, t] = ext[c, b + t]
     wst[0], wst[1] = (wst[0] + b) % r, new_ql
     return buf[:, :b]
 
