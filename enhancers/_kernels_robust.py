@@ -23,7 +23,14 @@ import math
 import numba
 import numpy as np
 
-from enhancers._kernels_wola import analyze_pair, synthesize
+from enhancers._kernels_wola import (
+    analyze_pair,
+    block_frames,
+    finish_block,
+    output_buffer,
+    overlap_add,
+    synthesize,
+)
 
 TINY = 1e-300
 
@@ -427,13 +434,7 @@ def run_block(block, tail, ola, queue, wst, win, rev, tw, par, ipar, cst, icst, 
     n = win.shape[1]
     K = n // 2 + 1
     r = wst[2]
-    b = block.shape[1]
-    phase, ql = wst[0], wst[1]
-    ext = np.empty((2, n - 1 + b))
-    ext[:, :n - 1] = tail
-    ext[:, n - 1:] = block
-    first_end = (r - 1 - phase) % r  # frame ends (block-relative) where (phase + j + 1) % R == 0
-    m = 0 if first_end >= b else (b - 1 - first_end) // r + 1
+    ext, first_end, m = block_frames(block, tail, wst)
     X = np.empty((2, m, K), dtype=np.complex128)
     for j in range(m):
         e = first_end + j * r  # the frame ending at block index e spans ext[e : e + N]
@@ -443,8 +444,7 @@ def run_block(block, tail, ola, queue, wst, win, rev, tw, par, ipar, cst, icst, 
     frozen = np.zeros((m, K), dtype=np.bool_)
     run_frames(X[0], X[1], par, ipar, cst, icst, rs, cs, dq_val, dq_idx, dq_hs, out_c, out_r, frozen)
     n_ch = ola.shape[0]
-    buf = np.empty((n_ch, ql + m * r))
-    buf[:, :ql] = queue[:, :ql]
+    buf = output_buffer(queue, wst, m)
     y = np.empty((2, n))
     for j in range(m):
         if n_ch == 2:  # the calibrated pair: front and corrected rear
@@ -452,12 +452,5 @@ def run_block(block, tail, ola, queue, wst, win, rev, tw, par, ipar, cst, icst, 
         else:
             synthesize(out_c[0, j], out_c[0, j], False, win[1], rev, tw, y[0], y[1])
         for c in range(n_ch):
-            for t in range(n - r):
-                y[c, t] += ola[c, t]
-            buf[c, ql + j * r:ql + (j + 1) * r] = y[c, :r]
-            ola[c] = y[c, r:]
-    new_ql = ql + m * r - b
-    queue[:, :new_ql] = buf[:, b:]
-    tail[:, :] = ext[:, b:]
-    wst[0], wst[1] = (phase + b) % r, new_ql
-    return buf[:, :b]
+            overlap_add(y[c], c, j, ola, buf, wst)
+    return finish_block(ext, buf, m, tail, queue, wst)

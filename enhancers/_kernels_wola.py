@@ -1,5 +1,7 @@
 """Compiled (numba) WOLA analysis / synthesis of one frame, for the fused streaming step of
-:mod:`enhancers.fast_frames` (the same filter bank as :class:`enhancers.filterbank.FilterBank`).
+:mod:`enhancers.fast_frames` and of ``ss_block`` / ``beam_block`` in :mod:`enhancers.stream_kernels` (the
+same filter bank as :class:`enhancers.filterbank.FilterBank`; :func:`block_frames` ... :func:`finish_block`
+are the block's framing and overlap-add bookkeeping, the state layout of ``fast_frames.wola_state``).
 
 Why: a 10 ms block is one or two frames, and numpy's ``rfft`` / ``irfft`` calls plus the filter
 bank's bookkeeping cost more per block than the frames' processing.  Here a radix-2 FFT (frame
@@ -92,3 +94,77 @@ def synthesize(Y1, Y2, two, ws, rev, tw, y1, y2):  # pragma: no cover - compiled
         y1[t] = re[t] / n * ws[t]
         if two:
             y2[t] = -im[t] / n * ws[t]
+
+
+@numba.njit(cache=True)
+def block_frames(block, tail, wst):  # pragma: no cover - compiled
+    """``(ext, first_end, m)`` of a streaming block ``(C, b)``: ``ext = [tail | block]`` and the ``m`` frames
+    completed in it, the frame ending at block index ``e = first_end + j R`` spanning ``ext[:, e:e + N]``
+    (enhancers.filterbank's frames; ``wst`` = (samples received modulo R, queued samples, R))."""
+    n1 = tail.shape[1]
+    r = wst[2]
+    b = block.shape[1]
+    ext = np.empty((block.shape[0], n1 + b))
+    for c in range(block.shape[0]):  # loops, not slice assignments: numba compiles these far faster
+        for t in range(n1):
+            ext[c, t] = tail[c, t]
+        for t in range(b):
+            ext[c, n1 + t] = block[c, t]
+    first_end = (r - 1 - wst[0]) % r  # frame ends (block-relative) where (phase + j + 1) % R == 0
+    m = 0 if first_end >= b else (b - 1 - first_end) // r + 1
+    return ext, first_end, m
+
+
+@numba.njit(cache=True)
+def output_buffer(queue, wst, m):  # pragma: no cover - compiled
+    """``(C, ql + m R)`` buffer of the block's output samples, starting with the ``ql`` queued ones."""
+    ql = wst[1]
+    buf = np.empty((queue.shape[0], ql + m * wst[2]))
+    for c in range(queue.shape[0]):
+        for t in range(ql):
+            buf[c, t] = queue[c, t]
+    return buf
+
+
+@numba.njit(cache=True)
+def overlap_add(y, c, j, ola, buf, wst):  # pragma: no cover - compiled
+    """Overlap-add the synthesised frame ``j`` ``y (N,)`` of channel ``c``: its first ``R`` samples are
+    complete (into ``buf``), the rest become the partial sums ``ola[c]`` (``y`` is overwritten)."""
+    r = wst[2]
+    ql = wst[1]
+    for t in range(y.shape[0] - r):
+        y[t] += ola[c, t]
+    for t in range(r):
+        buf[c, ql + j * r + t] = y[t]
+    for t in range(y.shape[0] - r):
+        ola[c, t] = y[r + t]
+
+
+@numba.njit(cache=True)
+def finish_block(ext, buf, m, tail, queue, wst):  # pragma: no cover - compiled
+    """Keep the state after a block of ``b`` samples (``tail``, ``queue``, ``wst``) and return its ``(C, b)`` output."""
+    r = wst[2]
+    b = ext.shape[1] - tail.shape[1]
+    new_ql = wst[1] + m * r - b
+    for c in range(queue.shape[0]):
+        for t in range(new_ql):
+            queue[c, t] = buf[c, b + t]
+    for c in range(tail.shape[0]):
+        for t in range(tail.shape[1]):
+            tail[c, t] = ext[c, b + t]
+    wst[0], wst[1] = (wst[0] + b) % r, new_ql
+    return buf[:, :b]
+
+
+@numba.njit(cache=True)
+def synthesize_frames(Y, m, ws, rev, tw, ola, queue, wst):  # pragma: no cover - compiled
+    """Synthesis and overlap-add of one channel's ``m`` frames ``Y (>= m + 1, K)`` (two frames per
+    inverse FFT; row ``m`` is scratch): the ``(1, ql + m R)`` buffer for :func:`finish_block`."""
+    buf = output_buffer(queue, wst, m)
+    y = np.empty((2, ws.shape[0]))
+    for j in range(0, m, 2):
+        synthesize(Y[j], Y[j + 1], j + 1 < m, ws, rev, tw, y[0], y[1])
+        overlap_add(y[0], 0, j, ola, buf, wst)
+        if j + 1 < m:
+            overlap_add(y[1], 0, j + 1, ola, buf, wst)
+    return buf

@@ -26,6 +26,7 @@ always pass on the state a call returns, never reuse an old one.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -33,7 +34,8 @@ import numpy as np
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import bin_omega
 
-__all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state"]
+__all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state", "wola_back", "wola_from",
+           "wola_maker", "wola_state"]
 
 #: False: new streams (and batch runs) use the numpy reference instead of the compiled kernel.
 COMPILED = True
@@ -165,8 +167,17 @@ def _bin_constants(p, fs: int, delay: float, K: int, band: slice | None) -> np.n
     return cst
 
 
-def _wola_state(filterbank, n_out: int) -> tuple | None:
-    """The fused step's filter-bank arrays (see ``_kernels_robust.run_block``), None unless ``N = 2^k``."""
+def wola_state(filterbank, n_out: int, n_in: int = 2) -> tuple | None:
+    """A fresh stream's filter-bank arrays of a fused streaming step (``_kernels_robust.run_block``,
+    ``stream_kernels.ss_block``): ``(tail (n_in, N - 1), ola (n_out, N - R), queue (n_out, R), wst, windows
+    (2, N), FFT tables)``; None unless ``N = 2^k`` and ``R`` divides ``N``.
+
+    >>> from enhancers.filterbank import FilterBank
+    >>> [a.shape for a in wola_state(FilterBank(frame_len=8, hop=4), 1, n_in=1)[:3]]
+    [(1, 7), (1, 4), (1, 4)]
+    >>> wola_state(FilterBank(frame_len=12, hop=4), 1) is None
+    True
+    """
     from enhancers._kernels_wola import fft_tables
 
     n, r = filterbank.frame_len, filterbank.hop
@@ -174,8 +185,40 @@ def _wola_state(filterbank, n_out: int) -> tuple | None:
         return None
     rev, tw = fft_tables(n)
     win = np.stack([filterbank.analysis_window, filterbank.synthesis_window])
-    return (np.zeros((2, n - 1)), np.zeros((n_out, n - r)), np.zeros((n_out, r)),
+    return (np.zeros((n_in, n - 1)), np.zeros((n_out, n - r)), np.zeros((n_out, r)),
             np.array([0, r - 1, r], dtype=np.int64), win, rev, tw)
+
+
+def wola_maker(filterbank, n_out: int, n_in: int = 2):
+    """A callable returning fresh :func:`wola_state` arrays, or None when the fused step does not apply.
+
+    >>> from enhancers.filterbank import FilterBank
+    >>> wola_maker(FilterBank(frame_len=12, hop=4), 1) is None
+    True
+    """
+    if wola_state(filterbank, n_out, n_in) is None:
+        return None
+    return functools.partial(wola_state, filterbank, n_out, n_in)
+
+
+def wola_from(wola: tuple, analysis, synthesis) -> tuple:
+    """``wola`` (:func:`wola_state`'s arrays) filled with a stream's filter-bank state: ``analysis``'s
+    ``tail`` and ``phase``, ``synthesis``' ``ola`` and ``queue`` (:class:`enhancers.filterbank.FilterBankState`)."""
+    tail, ola, queue, wst = wola[:4]
+    tail[:], ola[:] = analysis.tail, synthesis.ola
+    ql = synthesis.queue.shape[1]  # always R - 1 - phase < R
+    queue[:, :ql] = synthesis.queue
+    wst[0], wst[1] = analysis.phase, ql
+    return wola
+
+
+def wola_back(wola: tuple):
+    """The :class:`enhancers.filterbank.FilterBankState` held by ``wola``'s arrays (copies; the inverse of
+    :func:`wola_from`): its ``tail``/``phase`` serve an analysis step, its ``ola``/``queue`` a synthesis step."""
+    from enhancers.filterbank import FilterBankState
+
+    tail, ola, queue, wst = wola[:4]
+    return FilterBankState(tail=tail.copy(), phase=int(wst[0]), ola=ola.copy(), queue=queue[:, :wst[1]].copy())
 
 
 def new_state(p, fs: int, n_bins: int, *, delay: float, filterbank, band: slice | None = None,
@@ -210,7 +253,7 @@ def new_state(p, fs: int, n_bins: int, *, delay: float, filterbank, band: slice 
     args = (par, ipar, _bin_constants(p, fs, delay, K, band), bounds, rs, cs, np.zeros((3, K, depth)),
             np.zeros((3, K, depth), dtype=np.int64), np.zeros((3, 2, K), dtype=np.int64))
     return FastState(args, calibrate=band is not None, beam=beam, das_mix=bool(getattr(p, "das_mix", False)),
-                     wola=_wola_state(filterbank, 1 if beam else 2))
+                     wola=wola_state(filterbank, 1 if beam else 2))
 
 
 class FusedStreaming:

@@ -21,8 +21,10 @@ The gain mask ``G`` is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
 filtering (algorithms.md section 8).  Batch processing is the streaming step applied to
 the whole signal, so batch and streaming outputs agree for every block size.  ``ss`` streams
 blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples through a compiled tracker
-and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame; the
-filter bank is the same); the numpy step stays the reference.
+and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame); with
+a power-of-two frame length (the default 256) the filter bank runs in the same numba call
+(:func:`enhancers.stream_kernels.ss_block`: one call per block, issue 20), otherwise it is the
+numpy one.  The numpy step stays the reference (``MAX_BLOCK = 0``).
 """
 
 from __future__ import annotations
@@ -108,6 +110,30 @@ class _SSState:
     tracker: Any
     fs: int
     n_frames: int = 0
+    #: While blocks run through ``ss``'s fused kernel: its arrays (``ss_block``'s arguments), which then
+    #: hold the filter bank's and the tracker's state instead of ``fb`` / ``tracker`` (see :func:`_unfuse`).
+    fused: tuple | None = None
+
+
+def _fuse(state: _SSState, wola: tuple) -> tuple:
+    """``ss_block``'s state arrays from ``state`` (``wola``: fresh arrays from ``fast_frames.wola_state``)."""
+    from enhancers.fast_frames import wola_from
+
+    tr = state.tracker
+    P = np.zeros(wola[4].shape[1] // 2 + 1) if tr.P is None else tr.P  # n_bins = N/2 + 1
+    return (*wola_from(wola, state.fb, state.fb), P, tr.actmin, tr.ring,
+            np.array([tr.count, tr.P is not None], dtype=float))
+
+
+def _unfuse(state: _SSState) -> None:
+    """Move the fused kernel's state back into ``state.fb`` / ``state.tracker`` (before a numpy step)."""
+    from enhancers.fast_frames import wola_back
+
+    P, sc = state.fused[7], state.fused[10]
+    state.fb = wola_back(state.fused)
+    state.tracker.P = P if sc[1] else None
+    state.tracker.count = int(sc[0])
+    state.fused = None
 
 
 @functools.lru_cache(maxsize=32)
@@ -168,6 +194,8 @@ class _SubtractionBase(Enhancer):
 
             if block.shape[-1] <= sk.MAX_BLOCK:
                 return self._compiled_step(sk, block, state), state
+        if state.fused is not None:
+            _unfuse(state)
         out, new, _, _ = self._step(block, state)
         return out, new
 
@@ -260,12 +288,26 @@ class SpectralSubtraction(_SubtractionBase):
 
     _compiled: ClassVar[bool] = True
 
+    @functools.cached_property
+    def _wola(self):
+        """Fresh fused-kernel filter-bank arrays (a callable), None when the frame length is not a power of two."""
+        from enhancers.fast_frames import wola_maker
+
+        return wola_maker(self.filterbank, 1, n_in=1)
+
     def _compiled_step(self, sk, block: np.ndarray, state: _SSState) -> np.ndarray:
         """:meth:`_step` with the tracker and gain of :func:`enhancers.stream_kernels.ss_ms1994_frames`.
 
-        The filter bank is the same; ``state`` (and its tracker state) is updated in place.
+        The filter bank is the same; ``state`` (and its tracker state) is updated in place.  With a
+        power-of-two frame length the whole block is one call (:func:`enhancers.stream_kernels.ss_block`).
         """
         fb = self.filterbank
+        if state.fused is None and self._wola is not None:
+            state.fused = _fuse(state, self._wola())
+        if state.fused is not None:
+            fu = state.fused
+            state.n_frames += (int(fu[3][0]) + block.shape[-1]) // fb.hop
+            return sk.ss_block(np.ascontiguousarray(block, dtype=float), *fu, *_ss_kernel_args(self.params))
         X, fbs = fb.analysis_step(block, state.fb)
         if X.shape[1]:
             tr = state.tracker

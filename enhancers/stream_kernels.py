@@ -8,7 +8,8 @@ of at most :data:`MAX_BLOCK` samples (the Martin 2001 tracker: runs of at most 4
 its numpy step for longer ones (batch), so batch == concatenated streaming is also a check of
 the kernel against the reference, and ``tests/test_stream_kernels.py`` compares the two paths
 on random multi-block input (1e-12 relative).  ``MAX_BLOCK = 0`` routes every block through
-the numpy reference.
+the numpy reference.  ``ss_block`` and ``beam_block`` also run the WOLA filter bank inside the call
+(the FFT kernels of :mod:`enhancers._kernels_wola`, shared with :mod:`enhancers.fast_frames`).
 
 ``cache=True`` keeps the machine code under ``__pycache__`` (or ``$NUMBA_CACHE_DIR``), so only
 the first call in a fresh install pays the JIT (measured by ``benchmarks/perf/stream_jit.py``).
@@ -26,8 +27,10 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["MAX_BLOCK", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_ms1994_frames",
-           "warm_up"]
+from enhancers._kernels_wola import analyze_pair, block_frames, finish_block, synthesize_frames
+
+__all__ = ["MAX_BLOCK", "beam_block", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_block",
+           "ss_ms1994_frames", "warm_up"]
 
 #: Longest block (samples) run through the compiled steps; longer blocks (batch) take the numpy path.
 MAX_BLOCK = 4096
@@ -280,6 +283,49 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
     sc[0] = count
 
 
+@numba.njit(cache=True)
+def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, omin, gp,
+             smoothed):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
+    """``ss``'s streaming block ``(1, b)`` end to end: the filter bank's analysis, :func:`ss_ms1994_frames`,
+    synthesis and overlap-add (the WOLA kernels of :mod:`enhancers._kernels_wola`, ``N`` a power of two).
+
+    Returns the ``(1, b)`` output; the filter-bank state ``tail (1, N - 1)``, ``ola (1, N - R)``,
+    ``queue (1, R)``, ``wst`` (as ``enhancers._kernels_robust.run_block``'s) and the tracker's
+    (as :func:`ss_ms1994_frames`') are updated in place.  Consecutive frames share one complex FFT.
+    """
+    n = win.shape[1]
+    r = wst[2]
+    ext, first_end, m = block_frames(block, tail, wst)
+    X = np.empty((m + 1, n // 2 + 1), dtype=np.complex128)  # one spare row: an odd frame's FFT partner
+    for j in range(0, m, 2):
+        e = first_end + j * r
+        f = e + r if j + 1 < m else e
+        analyze_pair(ext[0, e:e + n], ext[0, f:f + n], win[0], rev, tw, X[j], X[j + 1])
+    ss_ms1994_frames(X[:m], P, actmin, ring, sc, omin, gp, smoothed)  # X <- G X
+    return finish_block(ext, synthesize_frames(X, m, win[1], rev, tw, ola, queue, wst), m, tail, queue, wst)
+
+
+@numba.njit(cache=True)
+def beam_block(block, tail, ola, queue, wst, win, rev, tw,
+               wc):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
+    """A fixed beamformer's streaming block ``(2, b)`` -> ``(1, b)``: the filter bank's analysis (the two
+    channels of a frame share one complex FFT), ``Y = wc[0] X[0] + wc[1] X[1]`` per bin (``wc (2, K)``),
+    synthesis (two frames per inverse FFT) and overlap-add; state as :func:`ss_block`'s, ``tail (2, N - 1)``.
+    """
+    n = win.shape[1]
+    K = n // 2 + 1
+    r = wst[2]
+    ext, first_end, m = block_frames(block, tail, wst)
+    X = np.empty((2, K), dtype=np.complex128)
+    Y = np.empty((m + 1, K), dtype=np.complex128)  # one spare row: an odd frame's inverse-FFT partner
+    for j in range(m):
+        e = first_end + j * r
+        analyze_pair(ext[0, e:e + n], ext[1, e:e + n], win[0], rev, tw, X[0], X[1])
+        for k in range(K):
+            Y[j, k] = wc[0, k] * X[0, k] + wc[1, k] * X[1, k]
+    return finish_block(ext, synthesize_frames(Y, m, win[1], rev, tw, ola, queue, wst), m, tail, queue, wst)
+
+
 @numba.njit(cache=True, inline="always")
 def _ms2001_smooth(s, p, sn2, pb, pb2, qeqi, ac, t, cp):  # pragma: no cover - compiled
     """Equations (3), (9)-(12), (20)-(23) for one frame ``s`` (K,): ``p``, ``pb``, ``pb2``, ``qeqi`` updated.
@@ -413,3 +459,10 @@ def warm_up() -> None:
     from enhancers.noise_tracking import MS2001Config, ms2001_init, ms2001_step
 
     ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))
+    from enhancers.fast_frames import wola_state
+    from enhancers.filterbank import FilterBank
+
+    fb = FilterBank(frame_len=32, hop=16)
+    ss_block(x[:1].copy(), *wola_state(fb, 1, n_in=1), np.zeros(17), np.full(17, np.inf), np.full((3, 17), np.inf),
+             np.zeros(2), np.ones(17), gp, True)
+    beam_block(x.copy(), *wola_state(fb, 1), np.ones((2, 17), dtype=complex))

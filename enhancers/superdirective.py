@@ -21,6 +21,10 @@ mismatch.
 
 Directivity index and WNG of any weights: :func:`directivity_db`, :func:`wng_db`.
 
+Streaming blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run in one numba call
+(:func:`enhancers.stream_kernels.beam_block`: analysis, weights, synthesis; power-of-two frame
+lengths); the numpy filter-bank steps stay the reference (``MAX_BLOCK = 0``) and batch's path.
+
 Reference: H. Cox, R. M. Zeskind, T. Kooij, "Practical supergain", IEEE TASSP 34(3), 1986;
 H. Cox, R. M. Zeskind, M. M. Owen, "Robust adaptive beamforming", IEEE TASSP 35(10), 1987;
 J. Bitzer, K. U. Simmer, "Superdirective microphone arrays", in Microphone Arrays (2001).
@@ -137,6 +141,9 @@ class _SdState:
     synthesis: FilterBankState  # 1 channel out (overlap-add, queue)
     fs: int
     wc: np.ndarray | None = None  # conj(w).T at fs, (2, n_bins): read per block, so kept here
+    #: While blocks run through the fused kernel (``stream_kernels.beam_block``): its filter-bank arrays,
+    #: which then hold the state instead of ``analysis`` / ``synthesis``.
+    fused: tuple | None = None
 
 
 @functools.lru_cache(maxsize=32)
@@ -219,7 +226,31 @@ class Superdirective(Enhancer):
         wc = np.ascontiguousarray(np.conj(self.weights(fs).T))  # Y = wc[0] X[0] + wc[1] X[1]
         return _SdState(analysis=fb.init_state(2), synthesis=fb.init_state(1), fs=fs, wc=wc)
 
+    @functools.cached_property
+    def _wola(self):
+        """Fresh fused-kernel filter-bank arrays (a callable), None when the frame length is not a power of two."""
+        from enhancers.fast_frames import wola_maker
+
+        return wola_maker(self.filterbank, 1)
+
     def _process_block(self, block: np.ndarray, state: _SdState):
+        """Blocks of up to ``stream_kernels.MAX_BLOCK`` samples: one compiled call
+        (:func:`enhancers.stream_kernels.beam_block`) when the frame length is a power of two; the
+        numpy steps below stay the reference (and batch's path)."""
+        if 0 < block.shape[-1] and self._wola is not None:
+            import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+
+            if block.shape[-1] <= sk.MAX_BLOCK:
+                if state.fused is None:
+                    from enhancers.fast_frames import wola_from
+
+                    state.fused = wola_from(self._wola(), state.analysis, state.synthesis)
+                return sk.beam_block(np.ascontiguousarray(block, dtype=float), *state.fused, state.wc), state
+        if state.fused is not None:  # back to the numpy steps: they take the state over
+            from enhancers.fast_frames import wola_back
+
+            state.analysis = state.synthesis = wola_back(state.fused)
+            state.fused = None
         fb = self.filterbank
         X, state.analysis = fb.analysis_step(block, state.analysis)
         if X.shape[1]:

@@ -29,12 +29,15 @@ CASES = [
     ("hypercardioid", {"eq_hf": 0.0, "t_samples": 1.0}, "differential_block"),
     ("das", {}, "fir_pair_block"),
     ("das", {"look_az_deg": 40.0, "fir_taps": 20}, "fir_pair_block"),
-    ("ss", {}, "ss_ms1994_frames"),
-    ("ss", {"snr_def": "instant", "omin": 1.5, "gain_max": 10.0}, "ss_ms1994_frames"),
-    ("ss", {"n_sub": 3, "sub_len": 5, "frame_len": 128, "hop": 32}, "ss_ms1994_frames"),
+    ("ss", {}, "ss_block"),
+    ("ss", {"snr_def": "instant", "omin": 1.5, "gain_max": 10.0}, "ss_block"),
+    ("ss", {"n_sub": 3, "sub_len": 5, "frame_len": 128, "hop": 32}, "ss_block"),
+    ("ss", {"frame_len": 240, "hop": 80}, "ss_ms1994_frames"),  # not 2^k: numpy filter bank + compiled frames
     ("ss-ms2001", {}, "ms2001_frames"),
     ("ss-ms2001", {"td": 0.3, "nu": 3, "snr_def": "instant"}, "ms2001_frames"),
     ("mmse-lsa", {}, "ms2001_frames"),
+    ("superdirective", {}, "beam_block"),
+    ("superdirective", {"look_az_deg": 40.0, "wng_min_db": -3.0, "frame_len": 128, "hop": 32}, "beam_block"),
 ]
 
 
@@ -80,6 +83,24 @@ def test_compiled_step_equals_numpy_step(name, kwargs, kernel, rng, monkeypatch)
     assert np.max(np.abs(fast - ref)) <= REL_TOL * np.max(np.abs(ref))
     if hasattr(ref_state, "beta"):
         assert abs(fast_state.beta - ref_state.beta) <= REL_TOL
+
+
+@pytest.mark.parametrize("name", ["ss", "superdirective"])
+def test_fused_state_survives_switching_to_numpy_and_back(name, rng, monkeypatch):
+    """The fused kernels (``ss_block``, ``beam_block``) keep the filter bank's (and ss's tracker's) state
+    in their own arrays; blocks longer than ``MAX_BLOCK`` (numpy path) in between must hand that state
+    over both ways.  Oracle: the numpy step on every block (``MAX_BLOCK = 0``), 1e-12 of the output peak;
+    both paths really ran (block sizes on both sides of ``MAX_BLOCK``)."""
+    e = make(name)
+    x = _two_mic_input(rng, n=3 * FS) if e.tags.channels_in == 2 else _one_mic_input(rng)
+    n = x.shape[-1]
+    edges = np.unique(np.concatenate([[0], np.minimum(np.cumsum(rng.integers(1, 700, size=n // 200)), n), [n]]))
+    monkeypatch.setattr(sk, "MAX_BLOCK", 350)
+    assert np.any(np.diff(edges) > 350) and np.any(np.diff(edges) <= 350)
+    mixed, _ = _stream(e, x, edges)
+    monkeypatch.setattr(sk, "MAX_BLOCK", 0)
+    ref, _ = _stream(e, x, edges)
+    assert np.max(np.abs(mixed - ref)) <= REL_TOL * np.max(np.abs(ref))
 
 
 def test_compiled_gate_freezes_and_adapts(rng):

@@ -1,4 +1,5 @@
-"""First-call cost of the compiled streaming steps (:mod:`enhancers.stream_kernels`) in a fresh process.
+"""First-call cost of the compiled streaming steps (:mod:`enhancers.stream_kernels`, :mod:`enhancers.fast_frames`)
+in a fresh process.
 
     python -m benchmarks.perf.stream_jit [--only NAME ...]
 
@@ -19,7 +20,8 @@ import sys
 import tempfile
 
 #: Streaming built-ins with a compiled per-block step.
-COMPILED = ("eb", "eb-gated", "cardioid", "hypercardioid", "das", "ss", "ss-ms2001", "mmse-lsa", "eb-ss")
+COMPILED = ("eb", "eb-gated", "cardioid", "hypercardioid", "das", "ss", "ss-ms2001", "mmse-lsa", "eb-ss",
+            "superdirective", "eb-robust-ss")
 
 _CODE = """
 import time
