@@ -7,33 +7,36 @@ The benchmark runner needs only :func:`open_data`::
     clip = ds.noise("babble", 10.0, seed=1, n_channels=2)
 
 Recipes that write a data directory: :func:`list_recipes`, :func:`prepare`.
+
+The names below load on first use (:mod:`scenesim.lazy`): ``import data_recipes`` does not import
+the artificial voice's scipy.signal for a caller that wants the LTASS table.
 """
 
-from data_recipes.artificial_voice import TALKERS, Talker, artificial_voice
-from data_recipes.cmu_arctic import prepare_cmu_arctic
-from data_recipes.local import prepare_local, scan_local
-from data_recipes.noise_synthesis import SYNTHESIZABLE, SynthesizedNoise, synthesize_noise
-from data_recipes.noisex92 import prepare_noisex92
-from data_recipes.registry import Recipe, get_recipe, list_recipes, prepare
-from data_recipes.source import Clip, DataFallbackWarning, DataSource, open_data
+from __future__ import annotations
 
-__all__ = [
-    "TALKERS",
-    "SYNTHESIZABLE",
-    "Clip",
-    "DataFallbackWarning",
-    "DataSource",
-    "Recipe",
-    "SynthesizedNoise",
-    "Talker",
-    "artificial_voice",
-    "get_recipe",
-    "list_recipes",
-    "open_data",
-    "prepare",
-    "prepare_cmu_arctic",
-    "prepare_local",
-    "prepare_noisex92",
-    "scan_local",
-    "synthesize_noise",
-]
+from scenesim.lazy import lazy_exports
+
+# public name -> the module that defines it
+_SOURCES = {
+    "TALKERS": "data_recipes.artificial_voice",
+    "Talker": "data_recipes.artificial_voice",
+    "artificial_voice": "data_recipes.artificial_voice",
+    "prepare_cmu_arctic": "data_recipes.cmu_arctic",
+    "prepare_local": "data_recipes.local",
+    "scan_local": "data_recipes.local",
+    "SYNTHESIZABLE": "data_recipes.noise_synthesis",
+    "SynthesizedNoise": "data_recipes.noise_synthesis",
+    "synthesize_noise": "data_recipes.noise_synthesis",
+    "prepare_noisex92": "data_recipes.noisex92",
+    "Recipe": "data_recipes.registry",
+    "get_recipe": "data_recipes.registry",
+    "list_recipes": "data_recipes.registry",
+    "prepare": "data_recipes.registry",
+    "Clip": "data_recipes.source",
+    "DataFallbackWarning": "data_recipes.source",
+    "DataSource": "data_recipes.source",
+    "open_data": "data_recipes.source",
+}
+
+__all__ = sorted(_SOURCES)
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)

@@ -11,7 +11,7 @@ scipy.signal (~1.5 s) through ``scenesim.audio``.
 
 from __future__ import annotations
 
-import importlib
+from scenesim.lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -69,21 +69,4 @@ _SOURCES = {
 __all__ = sorted(_SOURCES)
 
 
-def __getattr__(name: str):
-    """Import the module that defines ``name`` on first access and cache the value here.
-
-    >>> import scenesim
-    >>> scenesim.ShoeBox.__name__
-    'ShoeBox'
-    """
-    try:
-        module = _SOURCES[name]
-    except KeyError:
-        raise AttributeError(f"module 'scenesim' has no attribute {name!r}") from None
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_SOURCES])
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)

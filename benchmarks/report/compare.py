@@ -65,7 +65,8 @@ def paired_ci(a: Sequence[float], b: Sequence[float], *, confidence: float = CON
     >>> round(s.mean_diff, 3), s.n
     (1.0, 3)
     """
-    from scipy.stats import t as student_t
+    # scipy.special's inverse Student-t CDF is what scipy.stats.t.ppf calls; scipy.stats costs ~0.9 s more to import
+    from scipy.special import stdtrit
 
     if len(a) != len(b):
         raise ValueError("paired samples need equal lengths")
@@ -78,7 +79,7 @@ def paired_ci(a: Sequence[float], b: Sequence[float], *, confidence: float = CON
     if n == 1:
         return PairedStat(1, mean_a, mean_b, mean, None, None, None)
     sd = math.sqrt(sum((x - mean) ** 2 for x in d) / (n - 1))
-    half = float(student_t.ppf(0.5 + confidence / 2, n - 1)) * sd / math.sqrt(n)
+    half = float(stdtrit(n - 1, 0.5 + confidence / 2)) * sd / math.sqrt(n)
     return PairedStat(n, mean_a, mean_b, mean, sd, mean - half, mean + half)
 
 

@@ -121,9 +121,9 @@ def ci95_halfwidth(std: float | None, n: int) -> float | None:
 @functools.lru_cache(maxsize=256)
 def _t975(dof: int) -> float:
     """Student-t 0.975 quantile (scipy's ``ppf`` costs ~0.5 ms; a report asks thousands of times)."""
-    from scipy.stats import t
+    from scipy.special import stdtrit  # = scipy.stats.t.ppf, without importing scipy.stats (~0.9 s)
 
-    return float(t.ppf(0.975, dof))
+    return float(stdtrit(dof, 0.975))
 
 
 def _sort_key(value):

@@ -17,11 +17,12 @@ import json
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from benchmarks.run.sweep import _RANGE_KEYS, Condition, stratified
+if TYPE_CHECKING:  # the sweep module pulls in the scene renderer (scipy.signal, ~1.3 s): a report needs none of it
+    from benchmarks.run.sweep import Condition
 
 #: The swept axes the picker spreads over (those with more than one value; not drawn per seed).
 LISTEN_AXES = ("rt60_s", "distance_m", "noise", "snr_in_db")
@@ -47,6 +48,8 @@ def _values(records: Sequence[Mapping[str, Any]], axis: str) -> list:
 
 def _drawn(record: Mapping[str, Any], axis: str) -> bool:
     """Whether ``axis`` was drawn per seed (the condition holds its range, not a swept value)."""
+    from benchmarks.run.sweep import _RANGE_KEYS  # lazy: see the imports
+
     rng = _RANGE_KEYS.get(axis)
     return rng is not None and f'"{rng}"' in str(record.get("condition_json") or "")
 
@@ -68,7 +71,11 @@ def pick_conditions(records: Sequence[Mapping[str, Any]], *, count: int) -> list
     ['babble0', 'wind0', 'babble10', 'wind5']
     >>> pick_conditions(recs[::-1], count=4) == pick_conditions(recs, count=4)
     True
+    >>> pick_conditions(recs, count=0)
+    []
     """
+    if count <= 0:  # no listening page (``--listen-count 0``): nothing to pick, nothing to import
+        return []
     axes = [a for a in LISTEN_AXES if len(_values(records, a)) > 1 and not any(_drawn(r, a) for r in records)]
     best: dict[tuple, tuple[int, str]] = {}
     for r in records:
@@ -82,6 +89,8 @@ def pick_conditions(records: Sequence[Mapping[str, Any]], *, count: int) -> list
         vals = _values(records, a)
         rank[a] = {v: _spread(len(vals)).index(i) for i, v in enumerate(vals)}
     keys = sorted(best, key=lambda k: (sum(rank[a][v] for a, v in zip(axes, k)), best[k]))
+    from benchmarks.run.sweep import stratified  # lazy: see the imports
+
     picked = stratified(keys, count, axes, value=lambda k, a: k[axes.index(a)])
     picked.sort(key=keys.index)
     return [best[k][1] for k in picked]

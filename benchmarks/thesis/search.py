@@ -52,7 +52,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 from benchmarks.thesis.reference import THESIS_NOISES, ThesisRow, load_thesis_tables
 
@@ -212,6 +211,10 @@ def eb_snr_i(cells: Cells, readings: Iterable[Reading]) -> dict[Reading, dict[tu
         groups.setdefault((r.scene_key(), r.adapt, r.beta_max), []).append(r)
     for group in groups.values():
         base = _make("eb", **{**group[0].eb_params(), "eq": False})
+        from scipy.signal import (
+            lfilter,  # lazy: the report imports this module and needs no scipy.signal (~1.3 s)
+        )
+
         eqs = {r: _make("eb", **r.eb_params()).filters(cells.fs) for r in group}
         for noise in cells.noises:
             images = cells.images(group[0], noise)
