@@ -143,3 +143,19 @@ def test_room_module_does_not_import_the_renderer():
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     imported |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     assert not imported & {"scenesim.room.ism", "scenesim.room.render", "scenesim.room.calibration", "scenesim.room.cache"}
+
+
+def test_a_fresh_process_builds_a_calibrated_room_without_importing_the_calibrator_first():
+    """Regression: ``scenesim`` loads its names lazily, so a sweep worker may build
+    ``ShoeBox(rt60_method="calibrated")`` in a process that never imported
+    ``scenesim.room.calibration`` (which registers the calibrator); every ``distance`` row failed."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from scenesim.room.shoebox import ShoeBox; "
+            "assert 'scenesim.room.calibration' not in sys.modules; "
+            "r = ShoeBox((5.0, 4.0, 3.0), rt60_s=0.3, rt60_method='calibrated'); "
+            "print(r.rt60_method, 'scenesim.room.calibration' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["calibrated", "True"]
