@@ -32,7 +32,7 @@ from dataclasses import KW_ONLY, dataclass, field
 
 import numpy as np
 
-from scenesim.errors import ParameterError
+from scenesim.errors import ParameterError, ScenesimError
 from scenesim.room.rt60 import (
     eyring_absorption,
     eyring_rt60,
@@ -181,10 +181,8 @@ class ShoeBox:
             elif self.rt60_method == "eyring":
                 alpha = np.full(6, eyring_absorption(t, self.dims_m, c=self.c))
             else:
-                if _calibrator is None:
-                    # calibration imports this module, so it cannot be imported at the top; importing
-                    # it registers the calibrator (a worker process may never have imported it)
-                    import scenesim.room.calibration  # noqa: F401
+                if _calibrator is None:  # pragma: no cover - scenesim/room/__init__ registers one
+                    raise ScenesimError("rt60_method='calibrated' needs scenesim.room.calibration imported")
                 alpha = np.asarray(_calibrator(self.dims_m, t, absorption=profile, bands_hz=self.bands_hz,
                                                air=self.air, c=self.c, scattering=self.scattering), dtype=float)
         alpha = np.array(alpha, dtype=float)
