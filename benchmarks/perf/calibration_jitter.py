@@ -89,12 +89,16 @@ def _snr(s_out, n_out, ref, latency) -> float:
     return M.snr_db(s_al, n_al)
 
 
-def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, overrides=None) -> list[dict]:
-    """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring)."""
-    images = render_group(cond, data_dir)[0]
-    rendered = images.mix(cond.snr_db)
-    s, n = rendered.speech_image, rendered.noise_image
-    ref = rendered.reference[0]
+def render_parts(cond, data_dir):
+    """``(speech image (2, n), noise image (2, n), reference (n,))`` of a ``phone`` condition at its SNR."""
+    rendered = render_group(cond, data_dir)[0].mix(cond.snr_db)
+    return rendered.speech_image, rendered.noise_image, rendered.reference[0]
+
+
+def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, overrides=None, parts=None) -> list[dict]:
+    """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring);
+    ``parts``: :func:`render_parts`' output when the caller has it already."""
+    s, n, ref = parts if parts is not None else render_parts(cond, data_dir)
     rows = []
     for name in names:
         e = with_geometry(_make(name, blind, overrides), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
