@@ -45,6 +45,23 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
 
 Cost: every condition is rendered once and each system run twice (plus replays); the full
 ``phone`` (5 seeds, 90 conditions) takes a few minutes on one core.
+
+Measured with ``--ss power_bins=2 gain_bins=2 gain_smooth=0.55`` (ss's averaged gain,
+:mod:`enhancers.ss`; 1 December 2026, load average 8-10 on 2 cores, 5 seeds, built-in data / ``--data-dir
+/work/shared/data``):
+
+* ss's own jitter (``--set calibrate=false adapt_gate_db=-60 mix_alpha0=1.0 --snrs 15 20 25``), worst /
+  median over the 15 rows per noise, default ss -> averaged gain: babble -25.5 / -32.2 -> -33.2 / -40.0
+  (shared data -27.1 / -32.8 -> -34.2 / -40.3), factory -31.3 / -38.3 -> -38.6 / -45.7 (-31.3 -> -39.6),
+  factory-hall -28.9 / -34.7 -> -37.7 / -42.6 (-28.2 -> -36.0), wind -31.6 / -36.8 -> -39.5 / -44.9
+  (-31.5 -> -38.8): every row <= -33 dB.
+* ``eb-robust-ss`` with its default front end (``--systems ss eb-robust-ss --pesq``, all six SNRs,
+  ``--baseline`` from the same run without ``--ss``): mean replay SNR-I change babble -0.40 / -0.11 dB,
+  factory -0.18 / +0.08, factory-hall +0.11 / +0.38, wind -0.55 / -0.40; mean PESQ (nb MOS-LQO)
+  +0.093 / +0.037, +0.064 / +0.035, +0.058 / +0.059, +0.048 / +0.001.
+* ``ss`` alone (reference mic): worst jitter at 15 dB babble -22.6 -> -31.5 (shared -22.8 -> -30.7), wind
+  -22.1 -> -31.0 (-20.8 -> -23.6); SNR-I change -0.30 / -0.26 (babble), -0.64 / -0.55 (wind), +0.68 / +0.88
+  (factory); PESQ +0.06 to +0.13.
 """
 
 from __future__ import annotations
