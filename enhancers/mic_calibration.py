@@ -195,6 +195,7 @@ from typing import ClassVar
 import numpy as np
 
 from enhancers import fast_frames
+from enhancers.calibration_model import fit_hp1, hp1_log_response
 from enhancers.stft_stage import (
     TINY,
     GateState,
@@ -218,6 +219,8 @@ BEAM_FREEZE = ("both", "cardioid", "level")
 # talker frame still learns -- speech is sparse in time and frequency)
 LEVEL_SCOPE = ("band", "bin")
 LEVEL_NEAR = (-4, -3, -2, 2, 3, 4)
+# what r_hat is: "bins", smoothed per-bin averages; "hp1", the 4-parameter sensor model fitted over model_band_hz
+MODELS = ("bins", "hp1")
 
 
 @dataclass(frozen=True)
@@ -239,6 +242,7 @@ class CalibrationState:
     pend_loud: np.ndarray    # bool (D, K): their level-rule firings
     q_cal: GateState         # the calibrated direction rule's smoothed cardioid powers
     r_dir: np.ndarray        # complex (K,) the estimate that rule uses (the last chunk start's)
+    theta: np.ndarray | None = None  # (4,) model="hp1": the last fit (calibration_model), None: the prior
 
 
 @dataclass(frozen=True)
@@ -273,6 +277,9 @@ class CalibrationParams(StftParams):
     cal_frontal_db: float | None = None
     cal_chunk: int = 8
     cal_frontal_beam: bool = False
+    model: str = "bins"
+    model_band_hz: tuple[float, float] = (100.0, 4000.0)
+    model_iter: int = 3
 
     @property
     def talker_blind(self) -> bool:
@@ -318,6 +325,10 @@ class CalibrationParams(StftParams):
             raise ParameterError("level_scope", self.level_scope, " or ".join(map(repr, LEVEL_SCOPE)))
         if self.beam_freeze not in BEAM_FREEZE:
             raise ParameterError("beam_freeze", self.beam_freeze, " or ".join(map(repr, BEAM_FREEZE)))
+        if self.model not in MODELS:
+            raise ParameterError("model", self.model, " or ".join(map(repr, MODELS)))
+        _check_band("model_band_hz", self.model_band_hz)
+        check_int("model_iter", self.model_iter, minimum=1, maximum=100)
 
 
 def _check_band(name: str, band) -> None:
@@ -530,6 +541,45 @@ def estimate_from_averages(avg: np.ndarray, *, band: slice, max_slope: float, sm
     return 10.0 ** (gain_db / 20.0) * np.exp(1j * phase)
 
 
+def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None, p: CalibrationParams, *,
+                   fs: int, band: slice, max_slope: float):
+    """``model="hp1"``: ``(r_hat (U, K), last theta (4,))`` from averages ``avg (U, 3, K)`` = (S11, S22, S21) of
+    ``U`` update frames and their per-bin active frame counts ``counts (U, K)``.
+
+    Per bin the measured ``ln r = 0.5 ln(S22 / S11) + j angle(S21 e^{-j b k})`` (``b``: the propagation
+    slope of :func:`_propagation_slope`, whose ``c / k`` term leaves the corners' phase in), fitted over
+    ``model_band_hz`` by :func:`enhancers.calibration_model.fit_hp1`, each update warm-started from the
+    previous fit (``theta``; None: the prior), ``model_iter`` steps.  Weights: inverse variances for
+    jointly Gaussian spectra with coherence ``gamma`` (capped at 0.99) over ``n`` frames (the bin's
+    active frames, at most the one-pole's ``2 tau_s fs / hop``): log gain ``2 n / (1 - gamma^2)``, phase
+    ``2 n gamma^2 / (1 - gamma^2)``, 0 where ``gamma < min_coherence`` (no phase to measure).  The model's
+    ``r`` is used in every bin, clipped like the per-bin estimate.
+
+    >>> import numpy as np, enhancers
+    >>> p = enhancers.make("mic-calibration", model="hp1").params
+    >>> avg = np.ones((1, 3, 129), dtype=complex)  # equal powers, coherent, no phase: r = 1
+    >>> r, th = model_estimate(avg, np.full((1, 129), 500.0), None, p, fs=16000, band=_band(p, 16000), max_slope=0.1)
+    >>> bool(np.allclose(r, 1.0, atol=1e-6)), r.shape
+    (True, (1, 129))
+    """
+    s11, s22, s21 = avg[:, 0].real, avg[:, 1].real, avg[:, 2]
+    k = np.arange(s21.shape[1])
+    slope = _propagation_slope(s21, band, max_slope)
+    log_r = 0.5 * np.log((s22 + TINY) / (s11 + TINY)) + 1j * np.angle(s21 * np.exp(-1j * slope[:, None] * k))
+    coh2 = np.minimum((s21.real**2 + s21.imag**2) / (s11 * s22 + TINY), 0.99)
+    n = np.minimum(counts, 2.0 * float(p.tau_s) * fs / int(p.hop))
+    w_gain = 2.0 * n / (1.0 - coh2)
+    w_phase = np.where(coh2 >= float(p.min_coherence) ** 2, w_gain * coh2, 0.0)
+    f_hz, fit = k * fs / int(p.frame_len), _band(p, fs, p.model_band_hz)
+    out = np.empty(s21.shape, dtype=complex)
+    g_max, ph_max = float(p.max_gain_db) * math.log(10.0) / 20.0, math.radians(float(p.max_phase_deg))
+    for u in range(s21.shape[0]):  # each fit starts from the previous one
+        theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter))
+        lr = hp1_log_response(f_hz, theta)
+        out[u] = np.exp(np.clip(lr.real, -g_max, g_max) + 1j * np.clip(lr.imag, -ph_max, ph_max))
+    return out, theta
+
+
 def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
     """Estimate ``r_hat`` for the frames of one block.
 
@@ -644,15 +694,21 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         if is_update[i]:
             avg[j] = a
             j += 1
-    r_raw = estimate_from_averages(avg, band=band, max_slope=2 * math.pi * delay / int(p.frame_len),
-                                   smooth_bins=int(p.smooth_bins), smooth_frac=float(p.smooth_frac),
-                                   max_gain_db=float(p.max_gain_db), max_phase_deg=float(p.max_phase_deg),
-                                   min_coherence=float(p.min_coherence), prev_phase=np.angle(state.raw_last),
-                                   phase_leak=float(p.phase_leak))
+    max_slope = 2 * math.pi * delay / int(p.frame_len)
+    n_upd = counts[is_update]
+    if p.model == "hp1":
+        r_raw, changes["theta"] = model_estimate(avg, n_upd, state.theta, p, fs=fs, band=band, max_slope=max_slope)
+        # the fit pools every cell of model_band_hz: the ramp counts them all, the same for every bin
+        n_upd = np.broadcast_to(n_upd[:, _band(p, fs, p.model_band_hz)].sum(axis=1, keepdims=True), n_upd.shape)
+    else:
+        r_raw = estimate_from_averages(avg, band=band, max_slope=max_slope,
+                                       smooth_bins=int(p.smooth_bins), smooth_frac=float(p.smooth_frac),
+                                       max_gain_db=float(p.max_gain_db), max_phase_deg=float(p.max_phase_deg),
+                                       min_coherence=float(p.min_coherence), prev_phase=np.angle(state.raw_last),
+                                       phase_leak=float(p.phase_leak))
     # shrunk towards the nominal 1 while a bin has few active frames n: r^min(1, n / ramp_frames)
     # (a few frames' estimate is noisy, and whatever of the talker leaks into them weighs 1/n)
-    n_upd = counts[is_update]
-    if p.ramp_over_band:  # the estimate averages the bins k +- half: its noise goes with their total count
+    if p.ramp_over_band and p.model == "bins":  # the estimate averages k +- half: its noise goes with their count
         k = np.arange(K)
         half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
         n_upd = _smooth_bins(n_upd, half) * (np.minimum(k + half + 1, K) - np.maximum(k - half, 0))

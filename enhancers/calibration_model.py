@@ -1,0 +1,91 @@
+"""The rear/front response ratio of two first-order high-passed mics, and its weighted fit (``model="hp1"``).
+
+Sensor model (algorithms.md section 4b): each mic has a sensitivity and a first-order high-pass
+``H_i(f) = j f / (f_ci + j f)``, the rear one optionally a constant phase, so the rear/front ratio is
+
+    r(f) = g e^{j phi0} (f_c1 + j f) / (f_c2 + j f)
+
+with 4 real parameters, stored as ``theta = (ln g, phi0 (rad), ln f_c1, ln f_c2)`` (logarithms: the
+gain and the corners stay positive, and the fit's steps are relative).  :func:`fit_hp1` fits them to
+per-bin measurements of ``ln r`` (real part: log gain, imaginary part: phase) by weighted least
+squares -- a few Gauss-Newton steps from a warm start, with a weak prior towards ``HP1_PRIOR`` (equal
+100 Hz corners, ``r = 1``) that decides what the data cannot: every parameter before any data, and
+the common corner when the corners are equal (then ``r`` does not depend on it).
+
+Why (issue 16): a per-bin estimate pools a few cells, so the talker x noise cross terms in the
+learned cells move it between the runs on ``s + n`` and ``s - n``; 4 parameters fitted over ~60
+bins pool ~15x more cells per parameter, and the estimate cannot take a shape the sensors do not have.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["HP1_PRIOR", "fit_hp1", "hp1_log_response"]
+
+#: ``theta`` of the prior: unit gain, no phase, both corners at 100 Hz (``r(f) = 1``).
+HP1_PRIOR = np.array([0.0, 0.0, math.log(100.0), math.log(100.0)])
+#: the prior's weight per parameter, in the units of the fit's weights (one cell measured over one frame
+#: weighs ~2): negligible once a few cells are learned, decisive where the data says nothing.
+PRIOR_WEIGHT = 1.0
+# corners are kept in 5 Hz .. 2 kHz, and a step changes one by at most a factor e (a far guess cannot jump)
+_LOG_FC_RANGE = (math.log(5.0), math.log(2000.0))
+_MAX_STEP = 1.0
+
+
+def hp1_log_response(f_hz: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``ln r(f)`` of the model, complex like ``f_hz (K,)`` (Hz); ``theta = (ln g, phi0, ln fc1, ln fc2)``.
+
+    >>> import numpy as np
+    >>> theta = np.array([np.log(10 ** (1 / 20)), np.radians(5.0), np.log(80.0), np.log(120.0)])
+    >>> r = np.exp(hp1_log_response(np.array([100.0, 8000.0]), theta))
+    >>> [round(float(x), 2) for x in (20 * np.log10(abs(r[0])), np.degrees(np.angle(r[0])))]
+    [-0.73, 16.53]
+    >>> [round(float(x), 2) for x in (20 * np.log10(abs(r[1])), np.degrees(np.angle(r[1])))]
+    [1.0, 5.29]
+    """
+    fc1, fc2 = math.exp(theta[2]), math.exp(theta[3])
+    return theta[0] + 1j * theta[1] + np.log(fc1 + 1j * f_hz) - np.log(fc2 + 1j * f_hz)
+
+
+def _normal_equations(f_hz, log_r, w_gain, w_phase, theta):
+    """Gauss-Newton's ``(J^T W J (4, 4), J^T W e (4,))`` at ``theta`` (the data part, no prior)."""
+    fc1, fc2 = math.exp(theta[2]), math.exp(theta[3])
+    err = log_r - hp1_log_response(f_hz, theta)
+    err = err.real + 1j * np.angle(np.exp(1j * err.imag))  # the phase residual wrapped to (-pi, pi]
+    J = np.stack([np.ones_like(f_hz, dtype=complex), np.full(f_hz.shape, 1j),
+                  fc1 / (fc1 + 1j * f_hz), -fc2 / (fc2 + 1j * f_hz)])  # d ln r / d theta, (4, K)
+    A = (J.real * w_gain) @ J.real.T + (J.imag * w_phase) @ J.imag.T
+    b = (J.real * w_gain) @ err.real + (J.imag * w_phase) @ err.imag
+    return A, b
+
+
+def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np.ndarray,
+            theta0: np.ndarray | None = None, *, n_iter: int = 3) -> np.ndarray:
+    """Fit ``theta`` (4,) of :func:`hp1_log_response` to ``log_r (K,)`` measured at ``f_hz (K,)`` (Hz).
+
+    Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + PRIOR_WEIGHT |theta - HP1_PRIOR|^2``,
+    ``e_k = log_r[k] - ln r(f_k)`` (phase wrapped), by ``n_iter`` Gauss-Newton steps from ``theta0``
+    (the previous fit; default the prior).  Weights ``(K,)`` >= 0: the inverse variances of the log gain
+    and of the phase (0: the bin says nothing about it).
+
+    >>> import numpy as np
+    >>> f = np.arange(2, 65) * 62.5
+    >>> truth = np.array([0.1, 0.05, np.log(60.0), np.log(140.0)])
+    >>> w = np.full(f.shape, 1e4)
+    >>> est = fit_hp1(f, hp1_log_response(f, truth), w, w, n_iter=20)
+    >>> bool(np.allclose(est, truth, atol=1e-3))
+    True
+    """
+    theta = HP1_PRIOR.copy() if theta0 is None else np.array(theta0, dtype=float)
+    for _ in range(int(n_iter)):
+        A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta)
+        A = A + PRIOR_WEIGHT * np.eye(4)
+        b = b - PRIOR_WEIGHT * (theta - HP1_PRIOR)
+        step = np.linalg.solve(A, b)
+        step[2:] = np.clip(step[2:], -_MAX_STEP, _MAX_STEP)
+        theta = theta + step
+        theta[2:] = np.clip(theta[2:], *_LOG_FC_RANGE)
+    return theta
