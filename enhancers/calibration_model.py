@@ -7,8 +7,11 @@ Sensor model (algorithms.md section 4b): each mic has a sensitivity and a first-
 
 with 4 real parameters, stored as ``theta = (ln g, phi0 (rad), ln f_c1, ln f_c2)`` (logarithms: the
 gain and the corners stay positive, and the fit's steps are relative).  :func:`fit_hp1` fits them to
-per-bin measurements of ``ln r`` (real part: log gain, imaginary part: phase) by weighted least
-squares -- a few Gauss-Newton steps from a warm start, with a weak prior towards ``HP1_PRIOR`` (equal
+per-bin measurements of ``ln r`` (real part: log gain, imaginary part: phase), plus a fifth, nuisance
+parameter ``theta[4]``: a phase ``theta[4] f / 1 kHz`` proportional to frequency (what a propagation
+slope removed beforehand left over -- a pure delay between the mics is not in the sensor model, so it
+is never part of ``r``; with it a wrong slope does not leak into ``phi0`` and the corners), by
+weighted least squares -- a few Gauss-Newton steps from a warm start, with a weak prior towards ``HP1_PRIOR`` (equal
 100 Hz corners, ``r = 1``) that decides what the data cannot: every parameter before any data, and
 the common corner when the corners are equal (then ``r`` does not depend on it).
 
@@ -25,8 +28,8 @@ import numpy as np
 
 __all__ = ["HP1_PRIOR", "fit_hp1", "hp1_log_response"]
 
-#: ``theta`` of the prior: unit gain, no phase, both corners at 100 Hz (``r(f) = 1``).
-HP1_PRIOR = np.array([0.0, 0.0, math.log(100.0), math.log(100.0)])
+#: ``theta`` of the prior: unit gain, no phase, both corners at 100 Hz (``r(f) = 1``), no residual slope.
+HP1_PRIOR = np.array([0.0, 0.0, math.log(100.0), math.log(100.0), 0.0])
 #: the prior's weight per parameter, in the units of the fit's weights (one cell measured over one frame
 #: weighs ~2): negligible once a few cells are learned, decisive where the data says nothing.
 PRIOR_WEIGHT = 1.0
@@ -36,7 +39,8 @@ _MAX_STEP = 1.0
 
 
 def hp1_log_response(f_hz: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """``ln r(f)`` of the model, complex like ``f_hz (K,)`` (Hz); ``theta = (ln g, phi0, ln fc1, ln fc2)``.
+    """``ln r(f)`` of the model, complex like ``f_hz (K,)`` (Hz); ``theta = (ln g, phi0, ln fc1, ln fc2, ...)``
+    (a fifth entry, the fit's nuisance slope, is not part of ``r``).
 
     >>> import numpy as np
     >>> theta = np.array([np.log(10 ** (1 / 20)), np.radians(5.0), np.log(80.0), np.log(120.0)])
@@ -51,41 +55,47 @@ def hp1_log_response(f_hz: np.ndarray, theta: np.ndarray) -> np.ndarray:
 
 
 def _normal_equations(f_hz, log_r, w_gain, w_phase, theta):
-    """Gauss-Newton's ``(J^T W J (4, 4), J^T W e (4,))`` at ``theta`` (the data part, no prior)."""
+    """Gauss-Newton's ``(J^T W J (5, 5), J^T W e (5,))`` at ``theta (5,)`` (the data part, no prior)."""
     fc1, fc2 = math.exp(theta[2]), math.exp(theta[3])
-    err = log_r - hp1_log_response(f_hz, theta)
+    err = log_r - hp1_log_response(f_hz, theta) - 1j * theta[4] * f_hz / 1000.0
     err = err.real + 1j * np.angle(np.exp(1j * err.imag))  # the phase residual wrapped to (-pi, pi]
     J = np.stack([np.ones_like(f_hz, dtype=complex), np.full(f_hz.shape, 1j),
-                  fc1 / (fc1 + 1j * f_hz), -fc2 / (fc2 + 1j * f_hz)])  # d ln r / d theta, (4, K)
+                  fc1 / (fc1 + 1j * f_hz), -fc2 / (fc2 + 1j * f_hz), 1j * f_hz / 1000.0])  # d / d theta, (5, K)
     A = (J.real * w_gain) @ J.real.T + (J.imag * w_phase) @ J.imag.T
     b = (J.real * w_gain) @ err.real + (J.imag * w_phase) @ err.imag
     return A, b
 
 
 def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np.ndarray,
-            theta0: np.ndarray | None = None, *, n_iter: int = 3) -> np.ndarray:
-    """Fit ``theta`` (4,) of :func:`hp1_log_response` to ``log_r (K,)`` measured at ``f_hz (K,)`` (Hz).
+            theta0: np.ndarray | None = None, *, n_iter: int = 3, max_slope: float = 1.0) -> np.ndarray:
+    """Fit ``theta`` (5,) -- :func:`hp1_log_response`'s 4 and the nuisance slope -- to ``log_r (K,)``
+    measured at ``f_hz (K,)`` (Hz).
 
     Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + PRIOR_WEIGHT |theta - HP1_PRIOR|^2``,
-    ``e_k = log_r[k] - ln r(f_k)`` (phase wrapped), by ``n_iter`` Gauss-Newton steps from ``theta0``
+    ``e_k = log_r[k] - ln r(f_k) - j theta[4] f_k / 1 kHz`` (phase wrapped), by ``n_iter`` Gauss-Newton
+    steps from ``theta0``
     (the previous fit; default the prior).  Weights ``(K,)`` >= 0: the inverse variances of the log gain
-    and of the phase (0: the bin says nothing about it).
+    and of the phase (0: the bin says nothing about it).  Kept physical: ``|phi0| <= pi / 2``, corners in
+    5 Hz-2 kHz, ``|theta[4]| <= max_slope`` (rad per kHz: the propagation phase a pair can have; with
+    phase residuals wrapped, a free slope can lock onto an alias).
 
     >>> import numpy as np
     >>> f = np.arange(2, 65) * 62.5
-    >>> truth = np.array([0.1, 0.05, np.log(60.0), np.log(140.0)])
+    >>> truth = np.array([0.1, 0.05, np.log(60.0), np.log(140.0), 0.2])
     >>> w = np.full(f.shape, 1e4)
-    >>> est = fit_hp1(f, hp1_log_response(f, truth), w, w, n_iter=20)
+    >>> est = fit_hp1(f, hp1_log_response(f, truth) + 0.2j * f / 1000, w, w, n_iter=20)
     >>> bool(np.allclose(est, truth, atol=1e-3))
     True
     """
     theta = HP1_PRIOR.copy() if theta0 is None else np.array(theta0, dtype=float)
     for _ in range(int(n_iter)):
         A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta)
-        A = A + PRIOR_WEIGHT * np.eye(4)
+        A = A + PRIOR_WEIGHT * np.eye(5)
         b = b - PRIOR_WEIGHT * (theta - HP1_PRIOR)
         step = np.linalg.solve(A, b)
-        step[2:] = np.clip(step[2:], -_MAX_STEP, _MAX_STEP)
+        step[2:4] = np.clip(step[2:4], -_MAX_STEP, _MAX_STEP)
         theta = theta + step
-        theta[2:] = np.clip(theta[2:], *_LOG_FC_RANGE)
+        theta[1] = np.clip(theta[1], -math.pi / 2, math.pi / 2)
+        theta[2:4] = np.clip(theta[2:4], *_LOG_FC_RANGE)
+        theta[4] = np.clip(theta[4], -max_slope, max_slope)
     return theta

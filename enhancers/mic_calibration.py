@@ -548,10 +548,12 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
 
     Per bin the measured ``ln r = 0.5 ln(S22 / S11) + j angle(S21 e^{-j b k})`` (``b``: the propagation
     slope of :func:`_propagation_slope`, whose ``c / k`` term leaves the corners' phase in), fitted over
-    ``model_band_hz`` by :func:`enhancers.calibration_model.fit_hp1`, each update warm-started from the
+    ``model_band_hz`` by :func:`enhancers.calibration_model.fit_hp1` (with a nuisance phase slope within
+    twice the physical range ``max_slope`` rad per bin, which ``r`` leaves out), each update warm-started from the
     previous fit (``theta``; None: the prior), ``model_iter`` steps.  Weights: inverse variances for
     jointly Gaussian spectra with coherence ``gamma`` (capped at 0.99) over ``n`` frames (the bin's
-    active frames, at most the one-pole's ``2 tau_s fs / hop``): log gain ``2 n / (1 - gamma^2)``, phase
+    active frames, at most the one-pole's ``2 tau_s fs / hop``; ``gamma^2`` from the averages, its ``1 / n``
+    bias removed): log gain ``2 n / (1 - gamma^2)``, phase
     ``2 n gamma^2 / (1 - gamma^2)``, 0 where ``gamma < min_coherence`` (no phase to measure).  The model's
     ``r`` is used in every bin, clipped like the per-bin estimate.
 
@@ -566,15 +568,20 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
     k = np.arange(s21.shape[1])
     slope = _propagation_slope(s21, band, max_slope)
     log_r = 0.5 * np.log((s22 + TINY) / (s11 + TINY)) + 1j * np.angle(s21 * np.exp(-1j * slope[:, None] * k))
-    coh2 = np.minimum((s21.real**2 + s21.imag**2) / (s11 * s22 + TINY), 0.99)
     n = np.minimum(counts, 2.0 * float(p.tau_s) * fs / int(p.hop))
+    # the coherence of n frames is biased up by ~(1 - gamma^2) / n (one frame's is always 1): unbiased, capped
+    coh2 = (s21.real**2 + s21.imag**2) / (s11 * s22 + TINY)
+    coh2 = np.clip((n * coh2 - 1.0) / np.maximum(n - 1.0, 1.0), 0.0, 0.99)
     w_gain = 2.0 * n / (1.0 - coh2)
     w_phase = np.where(coh2 >= float(p.min_coherence) ** 2, w_gain * coh2, 0.0)
     f_hz, fit = k * fs / int(p.frame_len), _band(p, fs, p.model_band_hz)
+    # what the removed slope may have left: up to twice the physical range (it was clipped to it), rad per kHz
+    slope_khz = 2.0 * max_slope * int(p.frame_len) / fs * 1000.0
     out = np.empty(s21.shape, dtype=complex)
     g_max, ph_max = float(p.max_gain_db) * math.log(10.0) / 20.0, math.radians(float(p.max_phase_deg))
     for u in range(s21.shape[0]):  # each fit starts from the previous one
-        theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter))
+        theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter),
+                        max_slope=slope_khz)
         lr = hp1_log_response(f_hz, theta)
         out[u] = np.exp(np.clip(lr.real, -g_max, g_max) + 1j * np.clip(lr.imag, -ph_max, ph_max))
     return out, theta
