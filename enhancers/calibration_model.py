@@ -30,9 +30,10 @@ __all__ = ["HP1_PRIOR", "fit_hp1", "hp1_log_response"]
 
 #: ``theta`` of the prior: unit gain, no phase, both corners at 100 Hz (``r(f) = 1``), no residual slope.
 HP1_PRIOR = np.array([0.0, 0.0, math.log(100.0), math.log(100.0), 0.0])
-#: the prior's weight per parameter, in the units of the fit's weights (one cell measured over one frame
-#: weighs ~2): negligible once a few cells are learned, decisive where the data says nothing.
-PRIOR_WEIGHT = 1.0
+#: the prior's weights, inverse variances like the fit's (one cell measured over one frame weighs ~2): a
+#: sensitivity within ~2 dB, a constant phase within ~10 deg, corners within a factor ~2, a residual slope
+#: within ~1 rad/kHz -- a few cells' worth: negligible once cells are learned, decisive where the data says nothing.
+PRIOR_WEIGHT = np.array([20.0, 30.0, 2.0, 2.0, 1.0])
 # corners are kept in 5 Hz .. 2 kHz, and a step changes one by at most a factor e (a far guess cannot jump)
 _LOG_FC_RANGE = (math.log(5.0), math.log(2000.0))
 _MAX_STEP = 1.0
@@ -71,7 +72,7 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     """Fit ``theta`` (5,) -- :func:`hp1_log_response`'s 4 and the nuisance slope -- to ``log_r (K,)``
     measured at ``f_hz (K,)`` (Hz).
 
-    Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + PRIOR_WEIGHT |theta - HP1_PRIOR|^2``,
+    Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + sum_i PRIOR_WEIGHT[i] (theta - HP1_PRIOR)[i]^2``,
     ``e_k = log_r[k] - ln r(f_k) - j theta[4] f_k / 1 kHz`` (phase wrapped), by ``n_iter`` Gauss-Newton
     steps from ``theta0``
     (the previous fit; default the prior).  Weights ``(K,)`` >= 0: the inverse variances of the log gain
@@ -82,7 +83,7 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     >>> import numpy as np
     >>> f = np.arange(2, 65) * 62.5
     >>> truth = np.array([0.1, 0.05, np.log(60.0), np.log(140.0), 0.2])
-    >>> w = np.full(f.shape, 1e4)
+    >>> w = np.full(f.shape, 1e6)
     >>> est = fit_hp1(f, hp1_log_response(f, truth) + 0.2j * f / 1000, w, w, n_iter=20)
     >>> bool(np.allclose(est, truth, atol=1e-3))
     True
@@ -90,7 +91,7 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     theta = HP1_PRIOR.copy() if theta0 is None else np.array(theta0, dtype=float)
     for _ in range(int(n_iter)):
         A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta)
-        A = A + PRIOR_WEIGHT * np.eye(5)
+        A = A + np.diag(PRIOR_WEIGHT)
         b = b - PRIOR_WEIGHT * (theta - HP1_PRIOR)
         step = np.linalg.solve(A, b)
         step[2:4] = np.clip(step[2:4], -_MAX_STEP, _MAX_STEP)

@@ -554,7 +554,8 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
     jointly Gaussian spectra with coherence ``gamma`` (capped at 0.99) over ``n`` frames (the bin's
     active frames, at most the one-pole's ``2 tau_s fs / hop``; ``gamma^2`` from the averages, its ``1 / n``
     bias removed): log gain ``2 n / (1 - gamma^2)``, phase
-    ``2 n gamma^2 / (1 - gamma^2)``, 0 where ``gamma < min_coherence`` (no phase to measure).  The model's
+    ``2 n gamma^2 / (1 - gamma^2)``, 0 where ``gamma < min_coherence`` (no phase to measure); both 0 where
+    the measurement is beyond ``max_gain_db`` / ``max_phase_deg`` (outside the model's range).  The model's
     ``r`` is used in every bin, clipped like the per-bin estimate.
 
     >>> import numpy as np, enhancers
@@ -572,13 +573,15 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
     # the coherence of n frames is biased up by ~(1 - gamma^2) / n (one frame's is always 1): unbiased, capped
     coh2 = (s21.real**2 + s21.imag**2) / (s11 * s22 + TINY)
     coh2 = np.clip((n * coh2 - 1.0) / np.maximum(n - 1.0, 1.0), 0.0, 0.99)
-    w_gain = 2.0 * n / (1.0 - coh2)
-    w_phase = np.where(coh2 >= float(p.min_coherence) ** 2, w_gain * coh2, 0.0)
+    # a bin whose measurement the clip would cut says nothing the sensor model can explain (e.g. wind's
+    # convected phase, an unequal burst): left out, as the per-bin estimate clips it
+    g_max, ph_max = float(p.max_gain_db) * math.log(10.0) / 20.0, math.radians(float(p.max_phase_deg))
+    w_gain = np.where(np.abs(log_r.real) <= g_max, 2.0 * n / (1.0 - coh2), 0.0)
+    w_phase = np.where((coh2 >= float(p.min_coherence) ** 2) & (np.abs(log_r.imag) <= ph_max), w_gain * coh2, 0.0)
     f_hz, fit = k * fs / int(p.frame_len), _band(p, fs, p.model_band_hz)
     # what the removed slope may have left: up to twice the physical range (it was clipped to it), rad per kHz
     slope_khz = 2.0 * max_slope * int(p.frame_len) / fs * 1000.0
     out = np.empty(s21.shape, dtype=complex)
-    g_max, ph_max = float(p.max_gain_db) * math.log(10.0) / 20.0, math.radians(float(p.max_phase_deg))
     for u in range(s21.shape[0]):  # each fit starts from the previous one
         theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter),
                         max_slope=slope_khz)
