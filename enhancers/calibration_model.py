@@ -68,11 +68,13 @@ def _normal_equations(f_hz, log_r, w_gain, w_phase, theta):
 
 
 def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np.ndarray,
-            theta0: np.ndarray | None = None, *, n_iter: int = 3, max_slope: float = 1.0) -> np.ndarray:
+            theta0: np.ndarray | None = None, *, n_iter: int = 3, max_slope: float = 1.0,
+            prior_scale: float = 1.0) -> np.ndarray:
     """Fit ``theta`` (5,) -- :func:`hp1_log_response`'s 4 and the nuisance slope -- to ``log_r (K,)``
     measured at ``f_hz (K,)`` (Hz).
 
-    Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + sum_i PRIOR_WEIGHT[i] (theta - HP1_PRIOR)[i]^2``,
+    Minimises ``sum_k w_gain[k] Re(e_k)^2 + w_phase[k] Im(e_k)^2 + s sum_i PRIOR_WEIGHT[i] (theta - HP1_PRIOR)[i]^2``
+    (``s = prior_scale``: a larger one shrinks towards ``r = 1`` until the weights outgrow it),
     ``e_k = log_r[k] - ln r(f_k) - j theta[4] f_k / 1 kHz`` (phase wrapped), by ``n_iter`` Gauss-Newton
     steps from ``theta0``
     (the previous fit; default the prior).  Weights ``(K,)`` >= 0: the inverse variances of the log gain
@@ -91,8 +93,8 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     theta = HP1_PRIOR.copy() if theta0 is None else np.array(theta0, dtype=float)
     for _ in range(int(n_iter)):
         A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta)
-        A = A + np.diag(PRIOR_WEIGHT)
-        b = b - PRIOR_WEIGHT * (theta - HP1_PRIOR)
+        A = A + np.diag(prior_scale * PRIOR_WEIGHT)
+        b = b - prior_scale * PRIOR_WEIGHT * (theta - HP1_PRIOR)
         step = np.linalg.solve(A, b)
         step[2:4] = np.clip(step[2:4], -_MAX_STEP, _MAX_STEP)
         theta = theta + step

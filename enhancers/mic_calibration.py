@@ -280,6 +280,7 @@ class CalibrationParams(StftParams):
     model: str = "bins"
     model_band_hz: tuple[float, float] = (100.0, 4000.0)
     model_iter: int = 3
+    model_prior: float = 1.0
 
     @property
     def talker_blind(self) -> bool:
@@ -329,6 +330,7 @@ class CalibrationParams(StftParams):
             raise ParameterError("model", self.model, " or ".join(map(repr, MODELS)))
         _check_band("model_band_hz", self.model_band_hz)
         check_int("model_iter", self.model_iter, minimum=1, maximum=100)
+        check_range("model_prior", self.model_prior, 0.0, 1e9, lo_open=True)
 
 
 def _check_band(name: str, band) -> None:
@@ -584,7 +586,7 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
     out = np.empty(s21.shape, dtype=complex)
     for u in range(s21.shape[0]):  # each fit starts from the previous one
         theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter),
-                        max_slope=slope_khz)
+                        max_slope=slope_khz, prior_scale=float(p.model_prior))
         lr = hp1_log_response(f_hz, theta)
         out[u] = np.exp(np.clip(lr.real, -g_max, g_max) + 1j * np.clip(lr.imag, -ph_max, ph_max))
     return out, theta
