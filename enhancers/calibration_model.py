@@ -96,9 +96,12 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
         A = A + np.diag(prior_scale * PRIOR_WEIGHT)
         b = b - prior_scale * PRIOR_WEIGHT * (theta - HP1_PRIOR)
         step = np.linalg.solve(A, b)
+        slope = float(np.clip(theta[4] + step[4], -max_slope, max_slope))
+        if slope != theta[4] + step[4]:  # at its bound: the slope fixed there, the others solved for that
+            step[4] = slope - theta[4]
+            step[:4] = np.linalg.solve(A[:4, :4], b[:4] - A[:4, 4] * step[4])
         step[2:4] = np.clip(step[2:4], -_MAX_STEP, _MAX_STEP)
         theta = theta + step
         theta[1] = np.clip(theta[1], -math.pi / 2, math.pi / 2)
         theta[2:4] = np.clip(theta[2:4], *_LOG_FC_RANGE)
-        theta[4] = np.clip(theta[4], -max_slope, max_slope)
     return theta
