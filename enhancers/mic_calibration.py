@@ -280,7 +280,7 @@ class CalibrationParams(StftParams):
     model: str = "bins"
     model_band_hz: tuple[float, float] = (100.0, 4000.0)
     model_iter: int = 3
-    model_prior: float = 1.0
+    model_prior: float = 1000.0
 
     @property
     def talker_blind(self) -> bool:

@@ -451,26 +451,44 @@ def diffuse_trace_hp1():
     return make("mic-calibration", model="hp1").process(x, FS).trace
 
 
+@pytest.mark.parametrize("prior", [1000.0, 1.0])
+def test_model_prior_holds_the_estimate_in_incoherent_noise(prior):
+    """``model="hp1"`` in spatially white noise (nothing to measure a phase from, and powers equal only on
+    average): with the default prior (``model_prior=1000``) the estimate stays within 2 deg / 0.6 dB of
+    ``r = 1`` over the last 5 s of 10 s (measured 0.82 deg / 0.32 dB; the per-bin estimate 3.1 deg /
+    0.94 dB).  Control: with a prior of 1 (a few cells' worth) the fit follows the noise to more than
+    5 deg (measured 7.5 deg / 2.3 dB: the corners, which only the lowest bins see, wander)."""
+    x = np.random.default_rng(25).standard_normal((2, 10 * FS))
+    tr = make("mic-calibration", model="hp1", model_prior=prior).process(x, FS).trace
+    phase, gain = np.abs(tr["rear_phase_deg"][-600:]).max(), np.abs(tr["rear_gain_db"][-600:]).max()
+    if prior > 1:
+        assert phase <= 2.0 and gain <= 0.6
+    else:
+        assert phase > 5.0
+
+
 @pytest.mark.parametrize("lo_hz, hi_hz", [(100, 1000), (1000, 4000), (4000, 7000)])
 def test_model_recovers_mismatch_in_diffuse_noise(diffuse_trace_hp1, lo_hz, hi_hz):
     """``model="hp1"``, the scene of :func:`test_recovers_mismatch_in_diffuse_noise` (oracle: the closed-form
     ``r(f)`` of the applied mismatch, which the model can represent exactly): per-bin error of the last
-    second's estimate within 0.1 dB / 1 deg in every band (measured 0.04 dB / 0.42 deg, 0.02 / 0.27,
-    0.02 / 0.28; the per-bin estimate's 0.17 / 1.1, 0.25 / 2.2, 0.34 / 5.5: 4-17x less).  Above 4 kHz the
-    model extrapolates its fit from 100 Hz-4 kHz (the sensor model has nothing there but the gain and phase)."""
+    second's estimate within 0.1 dB / 1.2 deg in every band (measured 0.05 dB / 0.96 deg, 0.03 / 0.85,
+    0.03 / 0.86 -- the prior, ``model_prior=1000``, still pulls the phase towards 0 a little; with
+    ``model_prior=1`` 0.04 / 0.42, 0.02 / 0.23, 0.02 / 0.24; the per-bin estimate's 0.17 / 1.1, 0.25 / 2.2,
+    0.34 / 5.5).  Above 4 kHz the model extrapolates its fit from 100 Hz-4 kHz (the sensor model has
+    nothing there but the gain and phase)."""
     gain_err, phase_err = _errors(diffuse_trace_hp1, lo_hz, hi_hz)
-    assert gain_err <= 0.1 and phase_err <= 1.0
+    assert gain_err <= 0.1 and phase_err <= 1.2
 
 
 @pytest.mark.parametrize("theta", [135, 240])
 def test_model_recovers_mismatch_from_one_far_field_source(theta):
     """``model="hp1"``, the scene of :func:`test_recovers_mismatch_from_one_far_field_source` (the propagation
-    slope removed first): per-bin error within 0.05 dB / 0.4 deg from 100 Hz to 7 kHz (measured 0.01 dB /
-    0.12-0.16 deg; the per-bin estimate's 0.17 dB / 0.97 deg)."""
+    slope removed first): per-bin error within 0.05 dB / 0.6 deg from 100 Hz to 7 kHz (measured 0.02 dB /
+    0.42-0.44 deg, 0.01 dB / 0.12-0.16 deg with ``model_prior=1``; the per-bin estimate's 0.17 dB / 0.97 deg)."""
     x = apply_mismatch(plane_wave_pair(np.random.default_rng(22).standard_normal(8 * FS), az_deg=theta),
                        fs=FS, **MISMATCH)
     gain_err, phase_err = _errors(make("mic-calibration", model="hp1").process(x, FS).trace, 100, 7000)
-    assert gain_err <= 0.05 and phase_err <= 0.4
+    assert gain_err <= 0.05 and phase_err <= 0.6
 
 
 SENSORS = dict(gain_db=1.0, phase_deg=5.0, highpass_hz=(60.0, 140.0))
@@ -481,7 +499,7 @@ def test_fit_recovers_sensor_parameters_from_exact_log_response():
     """``calibration_model.fit_hp1`` from the prior (equal 100 Hz corners) on the exact ``ln r`` of 1 dB, 5 deg,
     corners 60 / 140 Hz (``mismatch.rear_response``, independent of the model code) at 125 Hz-4 kHz, equal
     weights: recovers ``ln g`` and ``phi0`` to 1e-4, ``ln fc1``, ``ln fc2`` to 2e-3 (0.2 %) and the nuisance
-    slope to 2e-3 of 0 (measured 4e-6, 3e-5, 8e-4, 3e-4: the prior's pull, weight 1, against the data's weak
+    slope to 2e-3 of 0 (measured 6e-6, 2e-5, 1.5e-3, 7e-4, 6e-6: the prior's pull, weight 1, against the data's weak
     curvature in the corners' common shift -- with equal corners ``r`` would not depend on it at all)."""
     from enhancers.calibration_model import fit_hp1
 
@@ -497,12 +515,13 @@ def test_fit_recovers_sensor_parameters_from_exact_log_response():
 def test_model_recovers_sensor_parameters_from_noiseless_averages(az):
     """``model_estimate`` on the noiseless averages of one far-field plane wave (``S11 = 1``, ``S22 = |r|^2``,
     ``S21 = r e^{-j w T cos(az)}``; ``r``: ``mismatch.rear_response``): the propagation slope is removed, then
-    the fit recovers the gain within 0.001 dB, the phase within 0.2 deg and the corners within 1 Hz (measured
-    0.0006 dB, 0.11 deg, 0.4 / 0.08 Hz: what remains is the slope fit's bias -- its ``c / k`` term
-    approximates the corners' phase to first order -- the same at every angle)."""
+    the fit (``model_prior=1``: the data decide) recovers the gain within 0.001 dB, the phase within 0.01 deg
+    and the corners within 0.1 Hz (measured 1e-5 dB, 2e-4 deg, 0.02 Hz, the same at every angle: the fit's
+    nuisance slope takes up the slope removal's bias -- its ``c / k`` term approximates the corners' phase
+    to first order only)."""
     from enhancers.mic_calibration import _band, model_estimate
 
-    e = make("mic-calibration", model="hp1", model_iter=50)
+    e = make("mic-calibration", model="hp1", model_iter=50, model_prior=1.0)
     delay = e.delay_samples(FS)
     r = rear_response(F_HZ, **SENSORS)
     prop = np.exp(-1j * 2 * np.pi * F_HZ / FS * delay * np.cos(np.radians(az)))
@@ -510,8 +529,8 @@ def test_model_recovers_sensor_parameters_from_noiseless_averages(az):
     _, theta = model_estimate(avg, np.full((1, 129), 250.0), None, e.params, fs=FS, band=_band(e.params, FS),
                               max_slope=2 * np.pi * delay / 256)
     assert abs(theta[0] - THETA_TRUE[0]) * 20 / np.log(10) <= 0.001
-    assert abs(np.degrees(theta[1] - THETA_TRUE[1])) <= 0.2
-    np.testing.assert_allclose(np.exp(theta[2:4]), [60.0, 140.0], rtol=0, atol=1.0)
+    assert abs(np.degrees(theta[1] - THETA_TRUE[1])) <= 0.01
+    np.testing.assert_allclose(np.exp(theta[2:4]), [60.0, 140.0], rtol=0, atol=0.1)
 
 
 def test_blocks_match_one_pass_with_the_model():
