@@ -55,13 +55,24 @@ def hp1_log_response(f_hz: np.ndarray, theta: np.ndarray) -> np.ndarray:
     return theta[0] + 1j * theta[1] + np.log(fc1 + 1j * f_hz) - np.log(fc2 + 1j * f_hz)
 
 
-def _normal_equations(f_hz, log_r, w_gain, w_phase, theta):
-    """Gauss-Newton's ``(J^T W J (5, 5), J^T W e (5,))`` at ``theta (5,)`` (the data part, no prior)."""
+def _robust(w: np.ndarray, e: np.ndarray, floor: float | None) -> np.ndarray:
+    """Weights ``w (K,)`` times Cauchy's ``1 / (1 + (e / s)^2)`` for residuals ``e (K,)``, ``s = max(3 / sqrt(w),
+    floor)`` (None: ``w`` unchanged): a bin far off the model (a talker's harmonic) counts less."""
+    if floor is None:
+        return w
+    s = np.maximum(3.0 / np.sqrt(np.maximum(w, 1e-30)), floor)
+    return w / (1.0 + (e / s) ** 2)
+
+
+def _normal_equations(f_hz, log_r, w_gain, w_phase, theta, robust=None):
+    """Gauss-Newton's ``(J^T W J (5, 5), J^T W e (5,))`` at ``theta (5,)`` (the data part, no prior; ``robust``:
+    the Cauchy weights' floor, :func:`_robust`)."""
     fc1, fc2 = math.exp(theta[2]), math.exp(theta[3])
     err = log_r - hp1_log_response(f_hz, theta) - 1j * theta[4] * f_hz / 1000.0
     err = err.real + 1j * np.angle(np.exp(1j * err.imag))  # the phase residual wrapped to (-pi, pi]
     J = np.stack([np.ones_like(f_hz, dtype=complex), np.full(f_hz.shape, 1j),
                   fc1 / (fc1 + 1j * f_hz), -fc2 / (fc2 + 1j * f_hz), 1j * f_hz / 1000.0])  # d / d theta, (5, K)
+    w_gain, w_phase = _robust(w_gain, err.real, robust), _robust(w_phase, err.imag, robust)
     A = (J.real * w_gain) @ J.real.T + (J.imag * w_phase) @ J.imag.T
     b = (J.real * w_gain) @ err.real + (J.imag * w_phase) @ err.imag
     return A, b
@@ -69,7 +80,7 @@ def _normal_equations(f_hz, log_r, w_gain, w_phase, theta):
 
 def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np.ndarray,
             theta0: np.ndarray | None = None, *, n_iter: int = 3, max_slope: float = 1.0,
-            prior_scale: float = 1.0) -> np.ndarray:
+            prior_scale: float = 1.0, robust: float | None = None) -> np.ndarray:
     """Fit ``theta`` (5,) -- :func:`hp1_log_response`'s 4 and the nuisance slope -- to ``log_r (K,)``
     measured at ``f_hz (K,)`` (Hz).
 
@@ -80,7 +91,9 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     (the previous fit; default the prior).  Weights ``(K,)`` >= 0: the inverse variances of the log gain
     and of the phase (0: the bin says nothing about it).  Kept physical: ``|phi0| <= pi / 2``, corners in
     5 Hz-2 kHz, ``|theta[4]| <= max_slope`` (rad per kHz: the propagation phase a pair can have; with
-    phase residuals wrapped, a free slope can lock onto an alias).
+    phase residuals wrapped, a free slope can lock onto an alias).  ``robust`` (None: off): each step
+    reweights the bins by Cauchy's ``1 / (1 + (e / s)^2)``, ``s = max(3 / sqrt(w), robust)`` (natural log
+    units: 0.05 is 0.43 dB or 2.9 deg), so a few bins far off the model pull it little.
 
     >>> import numpy as np
     >>> f = np.arange(2, 65) * 62.5
@@ -92,7 +105,7 @@ def fit_hp1(f_hz: np.ndarray, log_r: np.ndarray, w_gain: np.ndarray, w_phase: np
     """
     theta = HP1_PRIOR.copy() if theta0 is None else np.array(theta0, dtype=float)
     for _ in range(int(n_iter)):
-        A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta)
+        A, b = _normal_equations(f_hz, log_r, w_gain, w_phase, theta, robust)
         A = A + np.diag(prior_scale * PRIOR_WEIGHT)
         b = b - prior_scale * PRIOR_WEIGHT * (theta - HP1_PRIOR)
         step = np.linalg.solve(A, b)

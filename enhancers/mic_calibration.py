@@ -185,8 +185,10 @@ estimate is not a per-bin quantity but the sensor model of algorithms.md section
 averages over ``model_band_hz`` (100 Hz-4 kHz) -- weighted least squares on ``ln r``, weights the
 averages' inverse variances (active frame counts, de-biased coherence), ``model_iter`` (3) Gauss-Newton
 steps warm-started from the previous fit, a nuisance phase slope for what the propagation-slope removal
-leaves, and a prior towards ``r = 1`` of ``model_prior`` (1000) times a few cells' worth, which holds the
-estimate where the data are weak (incoherent noise) -- and the model's ``r`` is used in every bin
+leaves, a prior towards ``r = 1`` of ``model_prior`` (1000) times a few cells' worth, which holds the
+estimate where the data are weak (incoherent noise), and Cauchy weights (``model_robust``: residuals
+beyond ``max(3 sigma, 0.05)`` count less -- a talker's harmonic leaks into a few bins, which the model
+cannot follow) -- and the model's ``r`` is used in every bin
 (:func:`model_estimate`).  Why: the talker x noise cross terms of the learned cells change sign between
 the runs on ``s + n`` and ``s - n``; 4 parameters fitted over ~60 bins pool ~15x more cells each than
 a ~1/6-octave band does, so those terms average out.  The freeze rules, the clipping and the
@@ -301,6 +303,7 @@ class CalibrationParams(StftParams):
     model_band_hz: tuple[float, float] = (100.0, 4000.0)
     model_iter: int = 3
     model_prior: float = 1000.0
+    model_robust: float | None = 0.05
 
     @property
     def talker_blind(self) -> bool:
@@ -351,6 +354,8 @@ class CalibrationParams(StftParams):
         _check_band("model_band_hz", self.model_band_hz)
         check_int("model_iter", self.model_iter, minimum=1, maximum=100)
         check_range("model_prior", self.model_prior, 0.0, 1e9, lo_open=True)
+        if self.model_robust is not None:
+            check_range("model_robust", self.model_robust, 0.0, 10.0, lo_open=True)
 
 
 def _check_band(name: str, band) -> None:
@@ -606,7 +611,8 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
     out = np.empty(s21.shape, dtype=complex)
     for u in range(s21.shape[0]):  # each fit starts from the previous one
         theta = fit_hp1(f_hz[fit], log_r[u, fit], w_gain[u, fit], w_phase[u, fit], theta, n_iter=int(p.model_iter),
-                        max_slope=slope_khz, prior_scale=float(p.model_prior))
+                        max_slope=slope_khz, prior_scale=float(p.model_prior),
+                        robust=None if p.model_robust is None else float(p.model_robust))
         lr = hp1_log_response(f_hz, theta)
         out[u] = np.exp(np.clip(lr.real, -g_max, g_max) + 1j * np.clip(lr.imag, -ph_max, ph_max))
     return out, theta
@@ -784,9 +790,9 @@ class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
     level_floor_lam, level_frontal_db, beam_freeze : its variants (None / None / ``"both"``).
     cal_frontal_db, level_scope, cal_frontal_beam, cal_chunk : the calibrated direction rule (module
         docstring; None: off / ``"band"`` / False / 8 frames).
-    model, model_band_hz, model_iter, model_prior : what ``r_hat`` is (``"bins"``: per-bin averages;
-        ``"hp1"``: the 4-parameter sensor model fitted over 100-4000 Hz, 3 Gauss-Newton steps per update,
-        prior scale 1000; module docstring).
+    model, model_band_hz, model_iter, model_prior, model_robust : what ``r_hat`` is (``"bins"``: per-bin
+        averages; ``"hp1"``: the 4-parameter sensor model fitted over 100-4000 Hz, 3 Gauss-Newton steps per
+        update, prior scale 1000, Cauchy weights with a 0.05 floor (None: plain least squares); module docstring).
 
     Examples
     --------
