@@ -196,10 +196,14 @@ start-up ramp stay; the ramp then counts every learned cell of ``model_band_hz``
 Accuracy (tests, 8 s, 1 dB / 5 deg / corners 80 and 120 Hz): diffuse noise 0.05 dB / 1.0 deg worst bin
 to 7 kHz (per bin: 0.34 dB / 5.5 deg), one plane wave 0.02 dB / 0.44 deg (0.17 dB / 0.97 deg).
 Measured on ``phone`` (``python -m benchmarks.perf.calibration_jitter --seeds 2 --snrs 15 20 25
---decompose --set model='"hp1"'``; the README's table): the talker's part through ``r_hat`` drops from
--2..-29 dB (default) to -20..-58 dB on ``../shared/data``; the mismatch loss stays <= 2 dB; a pooled
-ramp (``ramp_frames=2000``) lowers it further but costs 3 dB of loss at 135 deg (the DAS weight
-learned during the ramp stays).  ``kernel_supports`` sends the mode to the numpy step.
+--decompose --set model='"hp1"'``, ``eb-robust``'s rows above -30 dB; load ~4 on 2 cores): the talker's
+part through ``r_hat`` (the decomposition's ``r_hat`` column) drops from -2..-28 dB (default) to
+-23..-59 dB on ``../shared/data`` and from -10..-36 to -28..-51 dB on the built-in data; ``eb-robust-ss``'s
+mean SNR-I per noise changes by -0.3..+1.3 dB (built-in babble +0.1, factory -0.3, hall +1.1, wind -0.1;
+shared +0.6, +0.3, +0.6, +1.3); the mismatch loss is 1.7 / 0.4 / 0.3 dB at 135 / 240 deg / diffuse (2
+seeds).  The whole ``eb-robust-ss`` jitter is then beta's (worst -16 dB on ``../shared/data``).  A pooled
+ramp (``ramp_frames=2000``) lowers the ``r_hat`` part by 0-10 dB more but costs 3.4 dB of loss at 135
+deg (the DAS weight learned during the ramp stays).  ``kernel_supports`` sends the mode to the numpy step.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
