@@ -736,8 +736,23 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         if is_update[i]:
             avg[j] = a
             j += 1
+    r_raw, r_upd = _estimate_updates(avg, counts[is_update], state, p, fs=fs, band=band, delay=delay, changes=changes)
+    raw_last = r_raw[-1].copy() if r_raw.shape[0] else state.raw_last
+    # every frame uses the estimate of the last update frame (the previous block's when none yet)
+    held = np.concatenate([state.r_last[None], r_upd], axis=0)
+    r_hat = held[np.cumsum(is_update)]
+    values = dict(vars(state))
+    values.update(avg=a, r_last=held[-1].copy(), raw_last=raw_last, n_frames=state.n_frames + F, counts=counts[-1].copy(), **changes)
+    return r_hat, card, level_now, CalibrationState(**values)
+
+
+def _estimate_updates(avg, n_upd, state: CalibrationState, p: CalibrationParams, *, fs: int, band: slice,
+                      delay: float, changes: dict):
+    """``(raw, applied)`` estimates ``(U, K)`` of the ``U`` update frames from their averages ``avg (U, 3, K)``
+    and active frame counts ``n_upd (U, K)``: per bin or by the model (``model``; its last fit goes into
+    ``changes["theta"]``), then the start-up ramp ``r^min(1, n / ramp_frames)``."""
+    K = avg.shape[2]
     max_slope = 2 * math.pi * delay / int(p.frame_len)
-    n_upd = counts[is_update]
     if p.model == "hp1":
         r_raw, changes["theta"] = model_estimate(avg, n_upd, state.theta, p, fs=fs, band=band, max_slope=max_slope)
         # the fit pools every cell of model_band_hz: the ramp counts them all, the same for every bin
@@ -755,13 +770,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
         n_upd = _smooth_bins(n_upd, half) * (np.minimum(k + half + 1, K) - np.maximum(k - half, 0))
     r_upd = np.exp(np.minimum(1.0, n_upd / float(p.ramp_frames)) * np.log(r_raw)) if p.ramp_frames > 0 else r_raw
-    raw_last = r_raw[-1].copy() if r_raw.shape[0] else state.raw_last
-    # every frame uses the estimate of the last update frame (the previous block's when none yet)
-    held = np.concatenate([state.r_last[None], r_upd], axis=0)
-    r_hat = held[np.cumsum(is_update)]
-    values = dict(vars(state))
-    values.update(avg=a, r_last=held[-1].copy(), raw_last=raw_last, n_frames=state.n_frames + F, counts=counts[-1].copy(), **changes)
-    return r_hat, card, level_now, CalibrationState(**values)
+    return r_raw, r_upd
 
 
 def calibration_trace(record: dict) -> dict:
