@@ -1,0 +1,146 @@
+"""Pooled adaptation of the sub-band beamformer's beta and DAS mix weight (issue 16 part 3, opt-in).
+
+Why pool.  ``eb-subband`` learns one beta and one DAS mix weight per STFT bin.  The talker (off
+the look direction) leaks into the backward cardioid ``cB`` and into ``D = Yd - Yo``, so the cells a
+per-bin estimate learns from carry speech x noise cross terms; they flip sign between two runs on
+``s + n`` and ``s - n`` and move the talker's path (``speech_jitter_db``).  Their error on an
+estimate pooled over ``K`` cells goes as ``sqrt(sum rho) / K`` (``rho`` = talker / noise power per
+cell): one parameter fitted over a whole band pools ~100 times more cells per frame than one per bin.
+
+* Direction model (:func:`direction_beta_step`): every bin's beta is the closed form (eq. 1 of
+  :mod:`enhancers.subband_eb`) of ONE rear direction per band, ``beta_k = B(c, w_k T)`` with
+  ``c = cos theta`` in ``[-1, 0]`` (theta in [90, 180] deg): a rear plane wave is nulled at every
+  frequency by one number.  ``c`` follows a normalised gradient of ``sum_k |Y_k|^2`` over the
+  band's cells (NLMS with regressor ``x_k = cB_k dB/dc``), the numerator over the cells the gate
+  does not freeze, the normaliser over all the band's cells of the *same* frame (no smoothed
+  powers: a loud talker frame shrinks its own step and nothing carries into later frames).
+* Pooled DAS weight (:func:`pooled_mix_step`): ``alpha`` per band, least squares from one-pole
+  averages of the band's *unfrozen* cells only (a per-bin smoothing would mix frozen talker cells
+  of neighbouring bins in), shrunk towards the prior ``alpha0`` while few cells were learned.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+TINY = 1e-30
+
+__all__ = ["band_onehot", "beta_from_cos", "dbeta_dcos", "direction_beta_step", "pooled_mix_step"]
+
+
+def beta_from_cos(c, omega_t) -> np.ndarray:
+    """Eq. 1 of :mod:`enhancers.subband_eb`: ``sin(wT(1 + c)/2) / sin(wT(1 - c)/2)``, 0 where ``wT = 0``.
+
+    ``c`` = cos of the rear direction (broadcast with ``omega_t``, rad).
+
+    >>> round(float(beta_from_cos(-0.5, 0.01)), 4)   # low frequency: (1 + c) / (1 - c) = 1/3
+    0.3333
+    """
+    wt = np.asarray(omega_t, dtype=float)
+    b = np.sin(wt * (1 - np.asarray(c)) / 2)
+    return np.sin(wt * (1 + np.asarray(c)) / 2) / np.where(b == 0, np.inf, b)
+
+
+def dbeta_dcos(c, omega_t) -> np.ndarray:
+    """``d beta_from_cos / dc = (wT / 2) sin(wT) / sin^2(wT(1 - c)/2)`` (closed form), 0 where ``wT = 0``.
+
+    >>> round(float(dbeta_dcos(-0.5, 0.001)), 3)     # low frequency: 2 / (1 - c)^2
+    0.889
+    """
+    wt = np.asarray(omega_t, dtype=float)
+    b = np.sin(wt * (1 - np.asarray(c)) / 2)
+    return 0.5 * wt * np.sin(wt) / np.where(b == 0, np.inf, b * b)
+
+
+def band_onehot(freqs_hz, edges_hz) -> np.ndarray:
+    """``(K, B)`` 0/1 matrix: bin ``k`` (``freqs_hz (K,)``) belongs to band ``searchsorted(edges, f)``.
+
+    ``edges_hz`` are the split points (``()``: one band); empty bands are dropped.
+
+    >>> band_onehot([0.0, 500.0, 1500.0, 3000.0], (1000.0,)).tolist()
+    [[1.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.0, 1.0]]
+    """
+    idx = np.searchsorted(np.asarray(edges_hz, dtype=float), np.asarray(freqs_hz, dtype=float), side="right")
+    m = (idx[:, None] == np.arange(len(edges_hz) + 1)[None]).astype(float)
+    return m[:, m.sum(axis=0) > 0]
+
+
+def direction_beta_step(cF, cB, p1, learn, c0, *, omega_t, onehot, mu: float, eps: float):
+    """One rear direction per band, NLMS on ``sum_k |cF_k - B(c, w_k T) cB_k|^2`` once per frame.
+
+    Parameters
+    ----------
+    cF, cB : complex (F, K), forward/backward cardioids.
+    p1 : (F, K) front-mic power ``|X1|^2`` (the regulariser ``eps p1 (dB/dc)^2`` per cell).
+    learn : bool (F, K) or None, the cells whose gradient counts (None: all).
+    c0 : (B,) cos of each band's direction before the first frame.
+    omega_t : (K,) ``w_k T`` (rad); onehot : (K, B) from :func:`band_onehot`.
+    mu : step per frame (the fraction of the frame's least-squares step), eps : regularisation.
+
+    Returns ``(betas (F, K) applied to each frame, cs (F, B), c after the last frame (B,))``.
+
+    >>> import numpy as np
+    >>> wt = np.linspace(0.0, 1.5, 9); oh = band_onehot(wt, ()); cB = np.ones((400, 9)) + 0j
+    >>> cF = beta_from_cos(-0.5, wt) * cB                           # a plane wave from 120 deg
+    >>> _, cs, c = direction_beta_step(cF, cB, np.ones((400, 9)), None, np.array([-1.0]),
+    ...                                 omega_t=wt, onehot=oh, mu=0.1, eps=0.0)
+    >>> round(float(c[0]), 4)
+    -0.5
+    """
+    band = onehot.argmax(axis=1)
+    F = cF.shape[0]
+    betas, cs = np.empty(cF.shape), np.empty((F, onehot.shape[1]))
+    c = np.asarray(c0, dtype=float).copy()
+    for i in range(F):  # beta depends on c nonlinearly: loop over frames, vectorised over bins
+        ck = c[band]
+        beta, d = beta_from_cos(ck, omega_t), dbeta_dcos(ck, omega_t)
+        betas[i], cs[i] = beta, c
+        y, x = cF[i] - beta * cB[i], cB[i] * d
+        g = y.real * x.real + y.imag * x.imag
+        if learn is not None:
+            g = np.where(learn[i], g, 0.0)
+        den = (x.real**2 + x.imag**2 + eps * p1[i] * d * d) @ onehot
+        c = np.clip(c + mu * (g @ onehot) / (den + TINY), -1.0, 0.0)
+    return betas, cs, c
+
+
+def pooled_mix_step(Yd, D, p1, learn, s_yd, s_dd, s_11, n, *, onehot, lam: float, eps: float, alpha0: float,
+                    ramp_cells: float = 0.0):
+    """DAS mix weight per band: ``alpha = clip((S_YD + alpha0 r) / (S_DD + r), 0, 1)``, ``r = eps S_11``.
+
+    ``S_*`` are one-pole averages (``lam`` per fully learned frame) of the band's mean over its
+    ``learn`` cells of ``Re(Yd conj(D))``, ``|D|^2`` and ``p1``; a frame with a fraction ``f`` of
+    the band's cells learned moves them by ``(1 - lam) f`` (``f = 0``: unchanged).  The weight of a
+    frame uses the averages of the frames before it.  ``ramp_cells > 0``: while the band has learned
+    ``n`` cells the weight applied is ``alpha0 + min(1, n / ramp_cells) (alpha - alpha0)``.
+
+    Shapes: ``Yd, D`` complex (F, K), ``p1`` (F, K), ``learn`` bool (F, K) or None, ``s_*`` and ``n``
+    (B,), ``onehot`` (K, B).  Returns ``(alphas (F, K), s_yd, s_dd, s_11, n)``.
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0); g = lambda: rng.standard_normal((300, 8)) + 1j * rng.standard_normal((300, 8))
+    >>> Yo, N = g(), g(); Yd = Yo + N; z = np.zeros(1)               # incoherent noise: alpha* = 1
+    >>> a, *_ = pooled_mix_step(Yd, Yd - Yo, np.ones((300, 8)), None, z, z, z, z, onehot=np.ones((8, 1)),
+    ...                         lam=0.95, eps=0.0, alpha0=0.0)
+    >>> bool(abs(a[-1, 0] - 1.0) < 0.1)
+    True
+    """
+    band = onehot.argmax(axis=1)
+    w = np.ones(p1.shape) if learn is None else learn.astype(float)
+    size = onehot.sum(axis=0)
+    f = (w @ onehot) / size
+    yd = ((Yd.real * D.real + Yd.imag * D.imag) * w) @ onehot / size
+    dd = ((D.real**2 + D.imag**2) * w) @ onehot / size
+    pm = (p1 * w) @ onehot / size
+    s_yd, s_dd, s_11, n = (np.array(v, dtype=float) for v in (s_yd, s_dd, s_11, n))
+    out = np.empty((p1.shape[0], onehot.shape[1]))
+    for i in range(p1.shape[0]):  # a time-varying one-pole per band
+        reg = eps * s_11 + TINY
+        a = np.clip((s_yd + alpha0 * reg) / (s_dd + reg), 0.0, 1.0)
+        out[i] = a if ramp_cells <= 0 else alpha0 + np.minimum(1.0, n / ramp_cells) * (a - alpha0)
+        k = (1.0 - lam) * f[i]
+        s_yd += (1.0 - lam) * yd[i] - k * s_yd
+        s_dd += (1.0 - lam) * dd[i] - k * s_dd
+        s_11 += (1.0 - lam) * pm[i] - k * s_11
+        n += f[i] * size
+    return out[:, band], s_yd, s_dd, s_11, n
