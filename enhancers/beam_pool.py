@@ -65,43 +65,60 @@ def band_onehot(freqs_hz, edges_hz) -> np.ndarray:
     return m[:, m.sum(axis=0) > 0]
 
 
-def direction_beta_step(cF, cB, p1, learn, c0, *, omega_t, onehot, mu: float, eps: float):
-    """One rear direction per band, NLMS on ``sum_k |cF_k - B(c, w_k T) cB_k|^2`` once per frame.
+def direction_beta_step(cF, cB, p1, learn, c0, *, omega_t, onehot, mu: float, eps: float, den0=None,
+                        norm_lam: float | None = None):
+    """One rear direction per band, NLMS on ``sum_k |cF_k - B(c, w_k T)_k cB_k|^2`` once per frame.
+
+    ``c += mu sum_learned Re(Y_k conj(x_k)) / den`` with ``x_k = cB_k dB/dc``, clipped to ``[-1, 0]``.
+    ``norm_lam`` None: ``den`` = the frame's ``sum_k |x_k|^2 + eps p1_k (dB/dc)^2`` over ALL the band's
+    cells (a frame whose cells are mostly frozen takes a small step).  ``norm_lam`` set: ``den`` is a
+    one-pole average of that sum over the *learned* cells only, scaled to the whole band (a frame with a
+    fraction ``f`` learned moves it by ``(1 - norm_lam) f``; the first learned frame sets it): the
+    talker's power in frozen cells neither shrinks the step nor carries into later frames.
 
     Parameters
     ----------
     cF, cB : complex (F, K), forward/backward cardioids.
-    p1 : (F, K) front-mic power ``|X1|^2`` (the regulariser ``eps p1 (dB/dc)^2`` per cell).
+    p1 : (F, K) front-mic power ``|X1|^2`` (the regulariser, relative ``eps``).
     learn : bool (F, K) or None, the cells whose gradient counts (None: all).
-    c0 : (B,) cos of each band's direction before the first frame.
+    c0 : (B,) cos of each band's direction before the first frame; den0 : (B,) the averaged normaliser
+        (``norm_lam`` set; None or 0: not yet set).
     omega_t : (K,) ``w_k T`` (rad); onehot : (K, B) from :func:`band_onehot`.
-    mu : step per frame (the fraction of the frame's least-squares step), eps : regularisation.
+    mu : step per frame (the fraction of the frame's least-squares step).
 
-    Returns ``(betas (F, K) applied to each frame, cs (F, B), c after the last frame (B,))``.
+    Returns ``(betas (F, K) applied to each frame, cs (F, B), c after the last frame (B,), den (B,))``.
 
     >>> import numpy as np
     >>> wt = np.linspace(0.0, 1.5, 9); oh = band_onehot(wt, ()); cB = np.ones((400, 9)) + 0j
     >>> cF = beta_from_cos(-0.5, wt) * cB                           # a plane wave from 120 deg
-    >>> _, cs, c = direction_beta_step(cF, cB, np.ones((400, 9)), None, np.array([-1.0]),
-    ...                                 omega_t=wt, onehot=oh, mu=0.1, eps=0.0)
+    >>> _, cs, c, _ = direction_beta_step(cF, cB, np.ones((400, 9)), None, np.array([-1.0]),
+    ...                                    omega_t=wt, onehot=oh, mu=0.1, eps=0.0)
     >>> round(float(c[0]), 4)
     -0.5
     """
-    band = onehot.argmax(axis=1)
+    band, size = onehot.argmax(axis=1), onehot.sum(axis=0)
     F = cF.shape[0]
     betas, cs = np.empty(cF.shape), np.empty((F, onehot.shape[1]))
     c = np.asarray(c0, dtype=float).copy()
+    den = np.zeros(onehot.shape[1]) if den0 is None else np.asarray(den0, dtype=float).copy()
     for i in range(F):  # beta depends on c nonlinearly: loop over frames, vectorised over bins
         ck = c[band]
         beta, d = beta_from_cos(ck, omega_t), dbeta_dcos(ck, omega_t)
         betas[i], cs[i] = beta, c
         y, x = cF[i] - beta * cB[i], cB[i] * d
         g = y.real * x.real + y.imag * x.imag
+        q = x.real**2 + x.imag**2 + eps * p1[i] * d * d
         if learn is not None:
             g = np.where(learn[i], g, 0.0)
-        den = (x.real**2 + x.imag**2 + eps * p1[i] * d * d) @ onehot
-        c = np.clip(c + mu * (g @ onehot) / (den + TINY), -1.0, 0.0)
-    return betas, cs, c
+        if norm_lam is None:
+            step = mu / ((q @ onehot) + TINY)
+        else:
+            w = np.ones(q.shape) if learn is None else learn[i].astype(float)
+            f, ql = (w @ onehot) / size, (q * w) @ onehot
+            den = np.where((den <= 0) & (f > 0), ql / np.maximum(f, TINY), den + (1.0 - norm_lam) * (ql - f * den))
+            step = mu / (den + TINY)
+        c = np.clip(c + step * (g @ onehot), -1.0, 0.0)
+    return betas, cs, c, den
 
 
 def pooled_mix_step(Yd, D, p1, learn, s_yd, s_dd, s_11, n, *, onehot, lam: float, eps: float, alpha0: float,

@@ -93,7 +93,7 @@ from enhancers.stft_stage import (
     smooth_frames,
 )
 from scenesim.errors import ParameterError
-from scenesim.validate import check_int, check_range
+from scenesim.validate import check_choice, check_int, check_range
 
 __all__ = ["SubbandElkoBeamformer", "SubbandState", "closed_form_beta", "subband_beta_step"]
 
@@ -109,7 +109,10 @@ def closed_form_beta(theta_deg: float, omega_t) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SubbandState:
-    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history."""
+    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history.
+
+    ``beta_model="direction"``: ``p_b`` holds the direction's averaged normaliser per band ``(B,)``.
+    """
 
     beta: np.ndarray
     p_b: np.ndarray
@@ -271,6 +274,7 @@ class SubbandEbParams(StftParams):
     mix_alpha0: float = 0.0
     beta_model: str = "bin"
     beta_bands_hz: tuple = ()
+    beta_norm: str = "frame"
     mix_bands_hz: tuple | None = None
     mix_ramp_cells: float = 0.0
 
@@ -305,8 +309,8 @@ class SubbandEbParams(StftParams):
 
 
     def _check_pooling(self):
-        if self.beta_model not in ("bin", "direction"):
-            raise ParameterError("beta_model", self.beta_model, '"bin" or "direction"')
+        check_choice("beta_model", self.beta_model, ("bin", "direction"))
+        check_choice("beta_norm", self.beta_norm, ("frame", "learned"))
         for name in ("beta_bands_hz", "mix_bands_hz"):
             edges = getattr(self, name)
             if edges is None and name == "mix_bands_hz":
@@ -376,11 +380,12 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         c0 = sub.cos_theta
         if c0 is None:  # beta0 at low frequencies: (1 + c) / (1 - c) = beta0
             c0 = np.full(onehot.shape[1], (float(p.beta0) - 1.0) / (float(p.beta0) + 1.0))
-        betas, _, c = direction_beta_step(cF, cB, pw1, None if frozen is None else ~frozen, c0,
-                                          omega_t=omega * self.delay_samples(fs), onehot=onehot, mu=float(p.mu),
-                                          eps=float(p.eps))
+        betas, _, c, den = direction_beta_step(
+            cF, cB, pw1, None if frozen is None else ~frozen, c0, omega_t=omega * self.delay_samples(fs),
+            onehot=onehot, mu=float(p.mu), eps=float(p.eps), den0=sub.p_b if sub.cos_theta is not None else None,
+            norm_lam=float(p.lam) if p.beta_norm == "learned" else None)
         values = dict(vars(sub))
-        values.update(cos_theta=c, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
+        values.update(cos_theta=c, p_b=den, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
         return betas, SubbandState(**values), frozen, p1
 
     def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int):
@@ -449,6 +454,15 @@ class SubbandElkoBeamformer(SubbandBase):
         per frame (0.95).
     mix_smooth_bins, mix_alpha0 : the DAS mix weight's averaging half-width over bins (default 0) and
         its prior (default 0: the differential path); see :func:`das_mix_step`.
+    beta_model, beta_bands_hz : ``"bin"`` (default: one NLMS beta per bin) or ``"direction"`` (opt-in,
+        :mod:`enhancers.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
+        per frame) and that model's band edges in Hz (default ``()``: one band).
+    beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
+        cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
+        :func:`enhancers.beam_pool.direction_beta_step`.
+    mix_bands_hz, mix_ramp_cells : the DAS mix weight per band (edges in Hz, ``()``: one band; default
+        None: per bin) from the band's unfrozen cells only, shrunk towards ``mix_alpha0`` until it has
+        learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam_pool.pooled_mix_step`.
 
     Examples
     --------

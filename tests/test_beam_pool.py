@@ -73,15 +73,15 @@ def test_direction_step_learns_nothing_from_frozen_cells(rng):
     oh = band_onehot(F_HZ, ())
     p1 = np.ones((F, K.size))
     kw = dict(omega_t=WT, onehot=oh, mu=0.1, eps=0.0)
-    betas, cs, c = direction_beta_step(cF, cB, p1, np.zeros((F, K.size), bool), np.array([-0.2]), **kw)
+    betas, cs, c, _ = direction_beta_step(cF, cB, p1, np.zeros((F, K.size), bool), np.array([-0.2]), **kw)
     assert np.all(cs == -0.2) and c[0] == -0.2
     np.testing.assert_allclose(betas, np.broadcast_to(beta_from_cos(-0.2, WT), betas.shape), rtol=0, atol=0)
     learn = np.zeros((F, K.size), bool)
     learn[:, ::2] = True
-    _, cs1, _ = direction_beta_step(cF, cB, p1, learn, np.array([-1.0]), **kw)
+    _, cs1, *_ = direction_beta_step(cF, cB, p1, learn, np.array([-1.0]), **kw)
     cF2 = cF.copy()
     cF2[:, 1::2] = 1e3 * cB[:, 1::2]  # inadmissible (beta 1000) but never learned from
-    _, cs2, _ = direction_beta_step(cF2, cB, p1, learn, np.array([-1.0]), **kw)
+    _, cs2, *_ = direction_beta_step(cF2, cB, p1, learn, np.array([-1.0]), **kw)
     np.testing.assert_allclose(cs1, cs2, rtol=0, atol=1e-15)
 
 
@@ -147,3 +147,21 @@ def test_pooled_modes_are_opt_in():
     for kw in ({"beta_model": "angle"}, {"beta_bands_hz": (2000.0, 1000.0)}, {"mix_bands_hz": [1000.0]}):
         with pytest.raises(ParameterError):
             make("eb-robust", **kw)
+
+
+def test_learned_normaliser_ignores_frozen_cells(rng):
+    """beta_norm="learned": frozen cells 40 dB louder in cB (a talker) leave the direction's trajectory
+    unchanged to 1e-12 (the frame normaliser would shrink its steps), and with every cell learned it still
+    converges to the plane wave's direction (cos 120 deg = -0.5 within 1e-3)."""
+    F = 200
+    cB = rng.standard_normal((F, K.size)) + 1j * rng.standard_normal((F, K.size))
+    cF = np.nan_to_num(_closed_form_beta(120)) * cB
+    learn = np.ones((F, K.size), bool)
+    learn[::3, 10:60] = False
+    kw = dict(omega_t=WT, onehot=band_onehot(F_HZ, ()), mu=0.1, eps=0.0, norm_lam=0.9)
+    p1 = np.ones((F, K.size))
+    _, cs1, c, _ = direction_beta_step(cF, cB, p1, learn, np.array([-1.0]), **kw)
+    loud_cB = np.where(learn, cB, 100.0 * cB)
+    _, cs2, *_ = direction_beta_step(cF, loud_cB, p1, learn, np.array([-1.0]), **kw)
+    np.testing.assert_allclose(cs1, cs2, rtol=0, atol=1e-12)
+    assert abs(c[0] + 0.5) <= 1e-3
