@@ -123,19 +123,6 @@ def test_pooled_alpha_ramps_from_its_prior(rng):
     np.testing.assert_allclose(a1, expected, rtol=0, atol=1e-12)
 
 
-def test_direction_streaming_equals_batch(rng):
-    """The pooled modes stream: blocks of 1, 97 and 128 samples equal batch to 1e-9."""
-    e = make("eb-robust", beta_model="direction", beta_bands_hz=(1000.0,), mix_bands_hz=(), mix_ramp_cells=100.0)
-    x = rng.standard_normal((2, 3000))
-    y = e.process(x, FS).output
-    for block in (1, 97, 128):
-        state, parts = e.init_state(FS), []
-        for i in range(0, x.shape[1], block):
-            out, state = e.process_block(x[:, i:i + block], state)
-            parts.append(out)
-        np.testing.assert_allclose(np.concatenate(parts, axis=1), y, rtol=0, atol=1e-9)
-
-
 def test_pooled_modes_are_opt_in():
     """Defaults run the compiled kernel as before; any pooled field sends eb-robust to the numpy reference; a
     bad value is a one-line parameter error."""
