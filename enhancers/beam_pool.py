@@ -17,6 +17,28 @@ cell): one parameter fitted over a whole band pools ~100 times more cells per fr
 * Pooled DAS weight (:func:`pooled_mix_step`): ``alpha`` per band, least squares from one-pole
   averages of the band's *unfrozen* cells only (a per-bin smoothing would mix frozen talker cells
   of neighbouring bins in), shrunk towards the prior ``alpha0`` while few cells were learned.
+
+Measured (``python -m benchmarks.perf.calibration_jitter [--data-dir ../shared/data] --seeds 2 --snrs 15 20 25
+--skip-mismatch --decompose --pooled``, i.e. ``beta_model="direction"``, ``mu=0.015``, ``beta_norm="learned"``,
+``mix_bands_hz=(1000, 4000)``; eb-robust's jitter with only beta (+EQ) / only alpha swapped between the
+``s + n`` and ``s - n`` runs, worst over 6 rows per noise, babble / factory / factory-hall / wind):
+
+* beta, shared data: -14.8 / -18.3 / -16.9 / -17.2 dB (default) -> -21.9 / -31.8 / -21.7 / -55.0 (medians
+  -19.4..-19.9 -> -34.9 / -41.4 / -33.7 / -71.3); built-in: -20.6 / -20.0 / -12.2 / -19.0 -> -31.3 / -30.7 /
+  -14.3 / -58.1.
+* alpha, shared: -9.4 / -26.6 / -16.8 / -16.4 -> -17.2 / -31.6 / -11.1 / -16.2 (medians -31.8 / -31.8 /
+  -20.3 / -22.2 -> -40.6 / -41.2 / -20.9 / -36.0): better except the reverberant hall.
+* eb-robust-ss mean SNR-I (shared) 4.16 / 9.56 / 2.18 / 8.95 -> 4.40 / 9.02 / 1.97 / 9.80 dB; built-in
+  5.40 / 9.83 / 1.67 / 8.32 -> 5.28 / 9.49 / 1.67 / 9.06.
+* issue 12's scenes (``benchmarks.perf.robust_eb``, 2 seeds): ideal / 1 dB-5 deg SNR-I at 135 deg 35.5 /
+  32.9 dB (default 28.3 / 28.3), 240 deg 35.9 / 28.0 (26.5 / 26.0), diffuse 3.3 / 3.2, wind 8.6 / 8.2: better
+  than the default with or without the mismatch, but one direction cannot absorb what the calibration
+  leaves of the mismatch, so the loss re its own deeper ideal null is 2.6 / 8.0 dB at 135 / 240 deg.
+* What the direction model gives up: a per-bin freedom the data may need.  Bins near Nyquist of a
+  fractional-delay plane wave (``scenesim.scene.freefield.plane_wave``'s default) are not eq. 1, so white
+  noise from 135 deg there is nulled by 21.7 dB broadband (per bin 32.1; with exact delays both >= 33 dB);
+  and below ~500 Hz of a real phone (self-noise, unequal high-pass corners) the best beta is not the
+  plane wave's either (factory SNR-I -0.5 dB).
 """
 
 from __future__ import annotations
