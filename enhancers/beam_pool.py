@@ -20,16 +20,19 @@ cell): one parameter fitted over a whole band pools ~100 times more cells per fr
 
 Measured (``python -m benchmarks.perf.calibration_jitter [--data-dir ../shared/data] --seeds 2 --snrs 15 20 25
 --skip-mismatch --decompose --pooled``, i.e. ``beta_model="direction"``, ``mu=0.015``, ``beta_norm="learned"``,
-``mix_bands_hz=(1000, 4000)``; eb-robust's jitter with only beta (+EQ) / only alpha swapped between the
-``s + n`` and ``s - n`` runs, worst over 6 rows per noise, babble / factory / factory-hall / wind):
+``mix_bands_hz=(1000, 4000)``, ``mix_ramp_cells=300``; eb-robust's jitter with only beta (+EQ) / only alpha
+swapped between the ``s + n`` and ``s - n`` runs, worst over the 6 rows per noise, babble / factory /
+factory-hall / wind; load ~5 on 2 cores):
 
-* beta, shared data: -14.8 / -18.3 / -16.9 / -17.2 dB (default) -> -21.9 / -31.8 / -21.7 / -55.0 (medians
-  -19.4..-19.9 -> -34.9 / -41.4 / -33.7 / -71.3); built-in: -20.6 / -20.0 / -12.2 / -19.0 -> -31.3 / -30.7 /
-  -14.3 / -58.1.
-* alpha, shared: -9.4 / -26.6 / -16.8 / -16.4 -> -17.2 / -31.6 / -11.1 / -16.2 (medians -31.8 / -31.8 /
-  -20.3 / -22.2 -> -40.6 / -41.2 / -20.9 / -36.0): better except the reverberant hall.
-* eb-robust-ss mean SNR-I (shared) 4.16 / 9.56 / 2.18 / 8.95 -> 4.40 / 9.02 / 1.97 / 9.80 dB; built-in
-  5.40 / 9.83 / 1.67 / 8.32 -> 5.28 / 9.49 / 1.67 / 9.06.
+* beta, shared data: -14.8 / -18.3 / -16.9 / -17.2 dB (default) -> -22.9 / -31.9 / -21.7 / -55.0 (medians
+  -19.0..-19.9 -> -35.1 / -41.7 / -33.9 / -71.3); built-in: -20.6 / -20.0 / -12.2 / -19.0 -> -31.8 / -30.7 /
+  -14.0 / -58.1.
+* alpha, shared: -9.4 / -26.6 / -16.8 / -16.4 -> -23.9 / -27.2 / -17.0 / -17.3 (medians -31.8 / -31.8 / -20.3
+  / -22.2 -> -38.6 / -37.0 / -31.2 / -36.0); built-in -38.4 / -39.3 / -23.1 / -22.0 -> -46.2 / -45.0 / -28.1 /
+  -23.3.  Without the ramp (``mix_ramp_cells=0``) the hall's worst is -11.1 (start-up, 0-1 kHz).
+* eb-robust-ss mean SNR-I (shared) 4.16 / 9.56 / 2.18 / 8.95 -> 4.43 / 9.04 / 1.96 / 8.87 dB; built-in
+  5.40 / 9.83 / 1.67 / 8.32 -> 4.98 / 9.20 / 1.59 / 7.52 (without the ramp 5.28 / 9.49 / 1.67 / 9.06: the
+  prior 0.5 held in wind's low band costs 1.5 dB there).
 * issue 12's scenes (``benchmarks.perf.robust_eb``, 2 seeds): ideal / 1 dB-5 deg SNR-I at 135 deg 35.5 /
   32.9 dB (default 28.3 / 28.3), 240 deg 35.9 / 28.0 (26.5 / 26.0), diffuse 3.3 / 3.2, wind 8.6 / 8.2: better
   than the default with or without the mismatch, but one direction cannot absorb what the calibration

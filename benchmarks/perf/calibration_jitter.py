@@ -73,7 +73,9 @@ DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": T
 
 # pooled beta and DAS weight (issue 16 part 3, enhancers/beam_pool.py): one rear direction for the whole band
 # (normaliser over the learned cells only, step 0.015 per frame) and the DAS weight in three bands (0-1, 1-4, 4-8 kHz)
-POOLED = {"beta_model": "direction", "mu": 0.015, "beta_norm": "learned", "mix_bands_hz": (1000.0, 4000.0)}
+# held near its prior until a band has learned 300 cells
+POOLED = {"beta_model": "direction", "mu": 0.015, "beta_norm": "learned", "mix_bands_hz": (1000.0, 4000.0),
+          "mix_ramp_cells": 300.0}
 
 
 def _params(blind, overrides=None) -> dict:
