@@ -167,6 +167,18 @@ wind beta and the DAS weight stay at their priors (hence wind's -12 dB); a highe
 (``gate_lam_cal=0.9``) or adding the rule to the level rule of :data:`TALKER_BLIND` changes nothing
 measurable.  So the rule stays opt-in, and no setting meets every target.
 
+Rear rule (issue 16, fourth round; off by default: ``cal_rear_db=None``).  Where the band's
+*backward* cardioid power exceeds the forward one by ``cal_rear_db`` (the calibrated pair, scope as
+above), the cell is learned whatever the level and cardioid rules say: a talker in front at ``rho``
+below a rear source raises that ratio towards 0 dB, so a strict threshold certifies the talker is far
+below the noise (tests: a rear source growing 6 dB/s, which keeps the level rule firing, is followed
+through a mismatch drift: 0.005 dB off instead of 0.99).  It lets the level rule stay strict in phone
+scenes and still learn behind the talker in issue 12's scene (loss 4.3 / -8.6 / 1.4 dB at 135 / 240 deg /
+diffuse with ``level_scope="bin"``, -1.4 / 1.0 / 1.4 with ``"band"``, 1 seed), but it learns from
+rear-dominated cells during speech too: ``eb-robust-ss`` jitter on ``phone`` (built-in, 1 seed) -19..-26 dB
+in the hall, -18..-24 dB in factory with ``"band"``.  ``beam_freeze="das"``: beta on its own gate, the DAS
+weight on the calibration's masks.
+
 What no calibration can remove: ``eb-robust-ss``'s ``ss`` stage has a gain that follows the mixture
 (``|s + n|`` in one run, ``|s - n|`` in the other), so it jitters by itself, the more the lower the SNR
 it sees.  With a front end that is the same operation in both runs (``calibrate=False``, beta frozen by
@@ -211,8 +223,9 @@ __all__ = ["CalibrationState", "MicCalibration", "calibration_step"]
 
 # which of the calibration's masks freeze eb-robust's beta / DAS weight in the talker-blind mode
 # (beta always has its own gate too): "both": beta and DAS on the cardioid and level rules;
-# "cardioid": beta on its gate only, DAS on the cardioid rules; "level": beta on the level rule, DAS on both
-BEAM_FREEZE = ("both", "cardioid", "level")
+# "cardioid": beta on its gate only, DAS on the cardioid rules; "level": beta on the level rule, DAS on both;
+# "das": beta on its gate only, DAS on both
+BEAM_FREEZE = ("both", "cardioid", "level", "das")
 # where the talker-blind level rule (and its frontal condition) measure: the whole level band per
 # frame ("band"), or per bin from its neighbours LEVEL_NEAR bins away ("bin": a talker-free bin of a
 # talker frame still learns -- speech is sparse in time and frequency)
@@ -239,6 +252,8 @@ class CalibrationState:
     pend_loud: np.ndarray    # bool (D, K): their level-rule firings
     q_cal: GateState         # the calibrated direction rule's smoothed cardioid powers
     r_dir: np.ndarray        # complex (K,) the estimate that rule uses (the last chunk start's)
+    q_rear: GateState | None = None  # the rear rule's smoothed cardioid powers (cal_rear_db)
+    pend_rear: np.ndarray | None = None  # bool (D, K): the rear rule's decisions of the pending frames
 
 
 @dataclass(frozen=True)
@@ -273,6 +288,7 @@ class CalibrationParams(StftParams):
     cal_frontal_db: float | None = None
     cal_chunk: int = 8
     cal_frontal_beam: bool = False
+    cal_rear_db: float | None = None
 
     @property
     def talker_blind(self) -> bool:
@@ -312,6 +328,8 @@ class CalibrationParams(StftParams):
         if self.cal_frontal_db is not None:
             check_range("cal_frontal_db", self.cal_frontal_db, -60.0, 60.0)
         check_int("cal_chunk", self.cal_chunk, minimum=1, maximum=10000)
+        if self.cal_rear_db is not None:
+            check_range("cal_rear_db", self.cal_rear_db, 0.0, 60.0)
         if not isinstance(self.cal_frontal_beam, bool):
             raise ParameterError("cal_frontal_beam", self.cal_frontal_beam, "True or False")
         if self.level_scope not in LEVEL_SCOPE:
@@ -560,7 +578,7 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
     the level rule and its hangover (no look ahead: what beta and the DAS weight, which cannot wait,
     use); new state.
     """
-    if p.cal_frontal_db is None or X1.shape[0] == 0:
+    if (p.cal_frontal_db is None and p.cal_rear_db is None) or X1.shape[0] == 0:
         return _masks_step(X1, X2, state, p, fs=fs, delay=delay)
     # the calibrated direction rule needs the estimate so far: chunks of cal_chunk frames counted from
     # the stream start (so blocks of any size give the same chunks), each judged with the estimate
@@ -571,16 +589,22 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
         if state.n_frames % n == 0:
             state = dataclasses.replace(state, r_dir=state.r_last.copy())
         hi = min(F, lo + n - state.n_frames % n)
-        extra, q_cal = _calibrated_frontal(X1[lo:hi], X2[lo:hi], state, p, delay=delay, fs=fs)
-        state = dataclasses.replace(state, q_cal=q_cal)
-        r, card, loud, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, extra=extra)
+        extra, rear, changes = _calibrated_frontal(X1[lo:hi], X2[lo:hi], state, p, delay=delay, fs=fs)
+        state = dataclasses.replace(state, **changes)
+        r, card, loud, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, extra=extra,
+                                           rear=rear)
         parts.append((r, card, loud))
         lo = hi
     return (*(np.concatenate([q[i] for q in parts]) for i in range(3)), state)
 
 
 def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *, delay: float, fs: int):
-    """The calibrated direction rule: ``(fires (F, K), new q_cal)``, True where a frontal source dominates.
+    """The calibrated direction rules: ``(fires (F, K) or None, rear (F, K) or None, state changes)``.
+
+    ``fires``: True where a frontal source dominates (``cal_frontal_db``); ``rear``: True where the
+    band is dominated from behind, ``P_B / P_F`` above ``cal_rear_db`` (a talker in front at ``rho``
+    below such a rear source raises the ratio by ~``rho`` plus its cardioid contrast, so a strict
+    threshold certifies that the talker is far below the noise there).
 
     The forward/backward cardioids of the *calibrated* pair ``X1, X2 / r`` (``r``: the estimate
     applied at the start of the chunk of ``cal_chunk`` frames, ``state.r_dir``), powers over the bins :data:`LEVEL_NEAR` away
@@ -600,12 +624,21 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
     else:
         band = _band(p, fs)
         pF, pB = _leave_out_sum(eF, band), _leave_out_sum(eB, band)
-    return power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db),
-                            lam=float(p.gate_lam_cal), n_window=0)
+    rule = dict(lam=float(p.gate_lam_cal), n_window=0)
+    fires = rear = None
+    changes = {}
+    if p.cal_frontal_db is not None:
+        fires, changes["q_cal"] = power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db), **rule)
+    if p.cal_rear_db is not None:
+        q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
+        rear, changes["q_rear"] = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_db), **rule)
+    return fires, rear, changes
 
 
-def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None):
-    """:func:`calibration_masks_step` for one chunk; ``extra (F, K)``: more cells the averages skip (or None)."""
+def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None,
+                rear=None):
+    """:func:`calibration_masks_step` for one chunk; ``extra (F, K)``: more cells the averages skip (or None);
+    ``rear (F, K)``: cells the averages learn from whatever the other rules say (or None)."""
     F, K = X1.shape
     if F == 0:
         none = np.zeros((0, K), dtype=bool)
@@ -627,6 +660,11 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn]), np.concatenate([pend_loud, loud])
     learn_frozen, level_now, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
+    if rear is not None:  # judged on the block's frames, which the averages reach n_ahead frames later
+        pend_rear = state.pend_rear if state.pend_rear is not None else np.zeros((n_ahead, rear.shape[1]), dtype=bool)
+        rears = np.concatenate([pend_rear, rear])
+        learn_frozen = learn_frozen & ~rears[:F]
+        changes["pend_rear"] = rears[F:]
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
     # 1 - lam, then 1 - lam; 0 where frozen

@@ -136,7 +136,7 @@ class RobustElkoBeamformer(SubbandBase):
             # level rule on (the talker-blind mode of issue 16) beta freezes on the masks beam_freeze names
             mode = self.params.beam_freeze
             mix_frozen = card if mode == "cardioid" else card | level
-            beta_frozen = {"both": mix_frozen, "level": level, "cardioid": None}[mode]
+            beta_frozen = {"both": mix_frozen, "level": level, "cardioid": None, "das": None}[mode]
             if not self.params.talker_blind:
                 beta_frozen = None
             record.update(r_hat=r_hat, frozen=mix_frozen)

@@ -241,30 +241,49 @@ def _ring_min(ring, k):  # pragma: no cover - compiled
     return m
 
 
+@numba.njit(cache=True, inline="always")
+def _bin_mean(s, k, h):  # pragma: no cover - compiled
+    """``enhancers.ss.average_over_bins`` of bin ``k`` (``s``: one frame's ``|X|^2`` or gain, mirrored ends)."""
+    K = s.shape[0]
+    acc = 0.0
+    for j in range(-h, h + 1):
+        i = abs(k + j)
+        if i > K - 1:
+            i = 2 * (K - 1) - i
+        acc += s[i]
+    return acc / (2 * h + 1)
+
+
 @numba.njit(cache=True)
-def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no cover - compiled
+def ss_ms1994_frames(X, P, actmin, ring, sc, g_prev, omin, gp, smoothed):  # pragma: no cover - compiled
     """Martin 1994 tracker and Berouti gain (:mod:`enhancers.ss`) applied to frames ``X`` (``(F, K)`` complex).
 
     P, actmin : (K,) smoothed power of the last frame and the open sub-window's minimum (updated)
     ring : (W, K) minima of the last W sub-windows, oldest first (updated)
     sc : [count, has_P] frames in the open sub-window; 0 before the first frame (updated)
-    omin : (K,) bias compensation; gp : [alpha, sub_len, osub0, osub_slope, osub_min, osub_max, subf, gain_max]
+    g_prev : (K,) the last frame's gain (``gain_smooth``'s recursion; read when has_P, updated)
+    omin : (K,) bias compensation
+    gp : [alpha, sub_len, osub0, osub_slope, osub_min, osub_max, subf, gain_max, power_bins, gain_bins, gain_smooth]
     smoothed : SNR from the smoothed power P (else from |X|^2)
 
-    ``X`` is overwritten with ``G X`` (the frames to synthesise; nothing else is allocated), the
-    arithmetic of ``_ms1994_one_frame`` and ``subtraction_gain`` per frame.
+    ``X`` is overwritten with ``G X`` (the frames to synthesise), the arithmetic of
+    ``_ms1994_one_frame``, ``average_over_bins``, ``subtraction_gain`` and ``smooth_gain`` per frame.
     """
     F, K = X.shape
     W = ring.shape[0]
     alpha, sub_len = gp[0], int(gp[1])
+    hp, hg, beta = int(gp[8]), int(gp[9]), gp[10]
     count = int(sc[0])
+    s = np.empty(K)
+    g0 = np.empty(K)
     for f in range(F):
         first = sc[1] == 0.0
         count += 1
         close = count == sub_len
         for k in range(K):
-            s = X[f, k].real * X[f, k].real + X[f, k].imag * X[f, k].imag
-            p = (1.0 - alpha) * s + alpha * (s if first else P[k])
+            s[k] = X[f, k].real * X[f, k].real + X[f, k].imag * X[f, k].imag
+        for k in range(K):
+            p = (1.0 - alpha) * s[k] + alpha * (s[k] if first else P[k])
             P[k] = p
             a = actmin[k] if actmin[k] < p else p
             if close:  # the sub-window completes: its minimum enters the ring
@@ -276,7 +295,13 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
             else:
                 pmin = min(_ring_min(ring, k), a)
                 actmin[k] = a
-            X[f, k] = _berouti_gain(s, p if smoothed else s, omin[k] * pmin, gp) * X[f, k]
+            g0[k] = _berouti_gain(s[k] if hp == 0 else _bin_mean(s, k, hp), p if smoothed else s[k], omin[k] * pmin, gp)
+        for k in range(K):
+            g = g0[k] if hg == 0 else _bin_mean(g0, k, hg)
+            if beta != 0.0 and not first:
+                g = beta * g_prev[k] + (1.0 - beta) * g
+            g_prev[k] = g
+            X[f, k] = g * X[f, k]
         if close:
             count = 0
         sc[1] = 1.0
@@ -284,7 +309,7 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, omin, gp, smoothed):  # pragma: no 
 
 
 @numba.njit(cache=True)
-def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, omin, gp,
+def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, g_prev, omin, gp,
              smoothed):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
     """``ss``'s streaming block ``(1, b)`` end to end: the filter bank's analysis, :func:`ss_ms1994_frames`,
     synthesis and overlap-add (the WOLA kernels of :mod:`enhancers._kernels_wola`, ``N`` a power of two).
@@ -301,7 +326,7 @@ def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, om
         e = first_end + j * r
         f = e + r if j + 1 < m else e
         analyze_pair(ext[0, e:e + n], ext[0, f:f + n], win[0], rev, tw, X[j], X[j + 1])
-    ss_ms1994_frames(X[:m], P, actmin, ring, sc, omin, gp, smoothed)  # X <- G X
+    ss_ms1994_frames(X[:m], P, actmin, ring, sc, g_prev, omin, gp, smoothed)  # X <- G X
     return finish_block(ext, synthesize_frames(X, m, win[1], rev, tw, ola, queue, wst), m, tail, queue, wst)
 
 
@@ -453,9 +478,9 @@ def warm_up() -> None:
                        np.zeros(9), pp, BLOCK_NLMS, True, np.full(4, np.inf), 5)
     hist = np.zeros((2, 31))
     fir_pair_block(extend(hist, x), hist, np.ones((2, 32)))
-    gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0])
+    gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0, 0.0, 0.0, 0.0])
     ss_ms1994_frames(np.fft.rfft(x, axis=-1), np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf),
-                     np.zeros(2), np.ones(21), gp, True)
+                     np.zeros(2), np.zeros(21), np.ones(21), gp, True)
     from enhancers.noise_tracking import MS2001Config, ms2001_init, ms2001_step
 
     ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))
@@ -464,5 +489,5 @@ def warm_up() -> None:
 
     fb = FilterBank(frame_len=32, hop=16)
     ss_block(x[:1].copy(), *wola_state(fb, 1, n_in=1), np.zeros(17), np.full(17, np.inf), np.full((3, 17), np.inf),
-             np.zeros(2), np.ones(17), gp, True)
+             np.zeros(2), np.zeros(17), np.ones(17), gp, True)
     beam_block(x.copy(), *wola_state(fb, 1), np.ones((2, 17), dtype=complex))

@@ -66,6 +66,14 @@ approximately frame by frame) from the window edges over the whole frame, so the
 broadband null of white noise at 120/135/150 deg drops from 33.3/32.1/31.6 dB to
 31.1/29.8/29.0 dB.  Without it the output is the look-direction speech shifted by 90
 degrees (inaudible, but a waveform comparison finds its best lag ~10 samples off).
+``eq_bound_beta`` (opt-in, issue 16): the noise-aware bound of the EQ is that of the fixed pattern
+``cF - b cB`` instead of the adapted one.  The talker passes through the EQ, so an EQ that follows beta
+moves the talker's path with every speech x noise cross term beta learns from: on ``phone`` (shared
+data, 2 seeds, 15-25 dB, ``benchmarks.perf.calibration_jitter --decompose``) the jitter carried by
+beta and its EQ falls from a median of -19.3 dB (worst -14.8) to -28.8 dB (worst -17.5) with ``b = 0``,
+and ``eb-robust-ss``'s SNR-I per noise rises by 0.2-0.4 dB; ``b = 1`` (the strictest bound) costs
+2-3 dB in factory and the hall.
+
 ``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.  Latency
 ``frame_len - 1`` samples.
 """
@@ -277,6 +285,7 @@ class SubbandEbParams(StftParams):
     beta_norm: str = "frame"
     mix_bands_hz: tuple | None = None
     mix_ramp_cells: float = 0.0
+    eq_bound_beta: float | None = None
 
     def _check_subband(self):
         self._check_stft()
@@ -299,6 +308,8 @@ class SubbandEbParams(StftParams):
         check_int("mix_smooth_bins", self.mix_smooth_bins, minimum=0, maximum=64)
         check_range("mix_alpha0", self.mix_alpha0, 0.0, 1.0)
         self._check_pooling()
+        if self.eq_bound_beta is not None:
+            check_range("eq_bound_beta", self.eq_bound_beta, 0.0, 1.0)
         if not isinstance(self.eq_phase, bool):
             raise ParameterError("eq_phase", self.eq_phase, "True or False")
         if not isinstance(self.das_mix, bool):
@@ -343,7 +354,11 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             return np.ones_like(betas)
         n = int(p.frame_len)
         omega = bin_omega(n)
-        g = look_eq_gain(betas, omega=omega, delay_samples=self.delay_samples(fs),
+        # eq_bound_beta: the white-noise bound of a fixed pattern, so that the EQ -- which the talker
+        # passes through -- does not follow the adapted beta (issue 16: an EQ that moves with beta
+        # moves the talker's path with every speech x noise cross term beta learns from)
+        bound_betas = betas if p.eq_bound_beta is None else np.full(betas.shape, float(p.eq_bound_beta))
+        g = look_eq_gain(bound_betas, omega=omega, delay_samples=self.delay_samples(fs),
                          freqs_hz=omega / (2 * np.pi) * fs, max_gain_db=float(p.eq_max_gain_db),
                          noise_gain_db=None if p.eq_noise_gain_db is None else float(p.eq_noise_gain_db),
                          highpass_hz=float(p.eq_highpass_hz))

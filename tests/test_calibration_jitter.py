@@ -48,3 +48,18 @@ def test_ss_floor_keeps_only_conditions_with_an_identical_front_end():
             row("eb-robust", 15, 1, -40.0), row("eb-robust-ss", 15, 1, -25.0),    # front end differs
             row("eb-robust", 10, 0, -300.0), row("eb-robust-ss", 10, 0, -12.0)]   # below 15 dB
     assert ss_floor(rows) == {"wind": [-21.0]}
+
+
+def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
+    """``--ss``: the parameters land on ``eb-robust-ss``'s ``ss`` stage (its ``eb`` stage keeps the given
+    ``--set`` values and otherwise its defaults) and on ``ss`` run alone; without them both are the defaults."""
+    from benchmarks.perf.calibration_jitter import _make
+    from enhancers.registry import make
+
+    ss = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
+    chain = _make("eb-robust-ss", False, {"calibrate": False}, ss)
+    assert chain.params.ss == make("ss", **ss).params
+    assert chain.params.eb == make("eb-robust", calibrate=False).params
+    assert _make("ss", False, {"calibrate": False}, ss).params == make("ss", **ss).params
+    assert _make("eb-robust-ss", False).params == make("eb-robust-ss").params
+    assert _make("ss", False).params == make("ss").params

@@ -227,3 +227,52 @@ def test_das_fallback_starts_from_its_prior():
     a_robust = make("eb-robust").process(x, FS).trace["alpha"]
     a_sub = make("eb-subband", das_mix=True, eq_phase=True).process(x, FS).trace["alpha"]
     assert np.all(a_robust == 0.5) and np.all(a_sub == 0.0)
+
+
+def test_eq_bound_beta_fixes_the_equaliser(rng):
+    """Issue 16: with ``eq_bound_beta=b`` the noise-aware EQ is the white-noise bound of the fixed pattern
+    ``cF - b cB`` (closed form :func:`look_eq_gain` at ``b``) in every frame, whatever beta adapts to, so it
+    is the same in the runs on ``s + n`` and ``s - n``; with the default it follows beta (a rear plane wave
+    pulls beta up, and the bound with it) and differs between the two runs."""
+    from signals import harmonic_speechlike
+
+    n = 3 * FS
+    talk = plane_wave_pair(harmonic_speechlike(n), az_deg=45)
+    noise = 0.3 * plane_wave_pair(rng.standard_normal(n), az_deg=150)
+    w = 2 * np.pi * np.arange(129) / NFFT
+    for b in (0.0, 0.7):
+        e = make("eb-robust", eq_bound_beta=b)
+        eq1, eq2 = (e._step(x, e._init_state(FS))[2]["eq"] for x in (talk + noise, talk - noise))
+        closed = look_eq_gain(np.full(129, b), omega=w, delay_samples=e.delay_samples(FS), freqs_hz=w / (2 * np.pi) * FS,
+                              max_gain_db=25.0, noise_gain_db=9.0, highpass_hz=80.0)
+        np.testing.assert_allclose(np.abs(eq1), np.broadcast_to(closed, eq1.shape), rtol=1e-12)
+        assert np.array_equal(eq1, eq2)
+    e = make("eb-robust")
+    eq1, eq2 = (e._step(x, e._init_state(FS))[2]["eq"] for x in (talk + noise, talk - noise))
+    assert np.max(np.abs(np.abs(eq1) - np.abs(eq2))) > 1e-3
+
+
+def test_eq_bound_beta_is_checked():
+    from scenesim.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="eq_bound_beta"):
+        make("eb-robust", eq_bound_beta=1.5)
+
+
+def test_das_freeze_mode_keeps_beta_on_its_own_gate(rng):
+    """``beam_freeze="das"`` (talker-blind mode): beta on its own gate only -- the same beta as
+    ``"cardioid"`` -- and the DAS weight frozen wherever the calibration's masks (cardioid rules and the
+    level rule) freeze: it does not move from one such frame to the next (``"cardioid"``'s does, in the
+    level rule's frames); a talker burst over white noise."""
+    from signals import harmonic_speechlike
+
+    n = 3 * FS
+    talk = np.zeros((2, n))
+    talk[:, FS:2 * FS] = plane_wave_pair(harmonic_speechlike(FS), az_deg=45)
+    x = talk + 0.1 * rng.standard_normal((2, n))
+    tr = {m: make("eb-robust", freeze_level_db=3.0, beam_freeze=m).process(x, FS).trace for m in ("das", "cardioid")}
+    np.testing.assert_array_equal(tr["das"]["beta"], tr["cardioid"]["beta"])
+    frozen = tr["das"]["frozen"][:-1].astype(bool)  # das: the mask the DAS weight uses (cardioid | level)
+    for mode, moves in (("das", False), ("cardioid", True)):
+        step = np.abs(np.diff(tr[mode]["alpha"], axis=0))
+        assert (step[frozen].max() > 1e-6) == moves, (mode, step[frozen].max())

@@ -64,9 +64,11 @@ def test_replay_is_exact_and_linear(cls, rng):
 
 
 @pytest.mark.parametrize("cls", CLASSES)
-def test_streaming_equals_batch(cls, rng):
-    """Blocks of 1, hop (128) and 97 samples give the batch output (to 1e-9); states are picklable."""
-    e = cls()
+@pytest.mark.parametrize("kwargs", [{}, dict(power_bins=3, gain_bins=3, gain_smooth=0.4)])
+def test_streaming_equals_batch(cls, kwargs, rng):
+    """Blocks of 1, hop (128) and 97 samples give the batch output (to 1e-9); states are picklable.
+    The averaged gain's recursion carries its last frame across blocks."""
+    e = cls(**kwargs)
     x = rng.standard_normal((1, 1500))
     ref = e.process(x, FS).output
     for block in (1, 128, 97):
@@ -140,3 +142,95 @@ def test_gain_mask_is_at_most_one_on_speech_in_noise(rng):
     x = (s + 0.05 * rng.standard_normal(t.size))[None]
     g = SpectralSubtraction().process(x, FS).trace["gain"]
     assert g.max() <= 1.0 + 1e-12
+
+
+def _slow_averaged_gain(S, Pn, p):
+    """Slow reference of the cross-term-averaging gain (``snr_def="instant"``), one bin at a time with
+    ``math``: mirrored mean of ``|X|^2`` over ``2 power_bins + 1`` bins -> Berouti rule -> mirrored mean of
+    the gain over ``2 gain_bins + 1`` bins -> ``G_l = b G_{l-1} + (1 - b) G_l`` (the first frame kept)."""
+    import math
+
+    F, K = S.shape
+
+    def mirrored_mean(row, k, h):
+        vals = []
+        for j in range(k - h, k + h + 1):
+            i = -j if j < 0 else (2 * (K - 1) - j if j > K - 1 else j)
+            vals.append(row[i])
+        return sum(vals) / len(vals)
+
+    G = np.zeros((F, K))
+    for f in range(F):
+        g0 = []
+        for k in range(K):
+            mag = math.sqrt(mirrored_mean(S[f], k, p.power_bins))
+            snr = 10 * math.log10(max(S[f, k], 1e-300) / max(Pn[f, k], 1e-300))
+            osub = min(max(p.osub0 - p.osub_slope * snr, p.osub_min), p.osub_max)
+            y = max(mag - math.sqrt(osub * Pn[f, k]), p.subf * math.sqrt(Pn[f, k]))
+            g0.append(min(y / mag, p.gain_max) if mag > 0 else 0.0)
+        for k in range(K):
+            g = mirrored_mean(g0, k, p.gain_bins)
+            G[f, k] = g if f == 0 else p.gain_smooth * G[f - 1, k] + (1 - p.gain_smooth) * g
+    return G
+
+
+@pytest.mark.parametrize("cls", CLASSES)
+@pytest.mark.parametrize("kwargs", [dict(power_bins=3, gain_bins=3, gain_smooth=0.4),
+                                    dict(power_bins=0, gain_bins=64, gain_smooth=0.9, frame_len=128, hop=64),
+                                    dict(power_bins=1, gain_bins=0, gain_smooth=0.0, gain_max=5.0)])
+def test_averaged_gain_matches_slow_reference(cls, kwargs, rng):
+    """The recorded mask (``trace["gain"]``) against :func:`_slow_averaged_gain` on the same ``|X|^2``
+    (the filter bank's analysis of the input) and noise PSD (the trace's), to 1e-12; the mask is what
+    the output applied (replay of the input == output)."""
+    e = cls(snr_def="instant", **kwargs)
+    x = harmonic_speechlike(FS // 2)[None] + 0.1 * rng.standard_normal((1, FS // 2))
+    r = e.process(x, FS)
+    X = e.filterbank.analyze(x)[0]
+    ref = _slow_averaged_gain(np.abs(X) ** 2, r.trace["noise_psd"], e.params)
+    np.testing.assert_allclose(r.trace["gain"], ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.replay(x), r.output, rtol=0, atol=1e-9)
+
+
+def test_bin_average_and_gain_smoothing_closed_forms():
+    """Oracles written out: a 4-bin row [1, 2, 4, 8] averaged over 3 mirrored bins is
+    [(2+1+2)/3, (1+2+4)/3, (2+4+8)/3, (4+8+4)/3]; a unit step smoothed with b = 0.75 is 1 - 0.75^l
+    after a first frame of 0."""
+    from enhancers.ss import average_over_bins, smooth_gain
+
+    np.testing.assert_allclose(average_over_bins(np.array([[1.0, 2.0, 4.0, 8.0]]), 1),
+                               [[5 / 3, 7 / 3, 14 / 3, 16 / 3]], rtol=1e-15)
+    step = np.concatenate([np.zeros((1, 2)), np.ones((5, 2))])
+    np.testing.assert_allclose(smooth_gain(step, None, 0.75)[:, 0], 1 - 0.75 ** np.arange(6), rtol=1e-15)
+    np.testing.assert_allclose(smooth_gain(step[1:], np.zeros(2), 0.75), smooth_gain(step, None, 0.75)[1:])
+
+
+@pytest.mark.parametrize("cls", CLASSES)
+def test_averaged_gain_lowers_speech_jitter(cls):
+    """Hagerman's pair (s + n, s - n) on a harmonic speech-like signal in 2 kHz low-pass noise at 15 dB:
+    ``speech_jitter_db`` of the replayed speech (:mod:`benchmarks.metrics.distortion`'s definition written
+    out) with the averaged gain (3 / 3 bins, 0.4) at least 8 dB below the default Berouti gain's.
+    Measured (seed 0): ss -25.7 -> -34.9 dB, ss-ms2001 -25.1 -> -34.1 dB (seeds 1, 2: 9.9 / 9.6 dB lower)."""
+    from signals import lowpass_noise
+
+    s = harmonic_speechlike(4 * FS)[None]
+    n = lowpass_noise(4 * FS, cutoff_hz=2000, rng=np.random.default_rng(0))[None]
+    n *= np.sqrt(np.mean(s ** 2) / np.mean(n ** 2) / 10 ** 1.5)
+
+    def jitter_db(e):
+        a, b = e.process(s + n, FS).replay(s), e.process(s - n, FS).replay(s)
+        return 10 * np.log10(np.mean((a - b) ** 2) / np.mean(a ** 2))
+
+    default, averaged = jitter_db(cls()), jitter_db(cls(power_bins=3, gain_bins=3, gain_smooth=0.4))
+    assert averaged <= default - 8.0, (default, averaged)
+
+
+@pytest.mark.parametrize("kwargs,name", [
+    ({"power_bins": -1}, "power_bins"), ({"power_bins": 1.5}, "power_bins"), ({"gain_bins": 129}, "gain_bins"),
+    ({"gain_bins": True}, "gain_bins"), ({"gain_smooth": 1.0}, "gain_smooth"), ({"gain_smooth": -0.1}, "gain_smooth"),
+    ({"gain_smooth": float("nan")}, "gain_smooth"),
+])
+@pytest.mark.parametrize("cls", CLASSES)
+def test_bad_averaging_params_are_one_line_errors(cls, kwargs, name):
+    with pytest.raises(ParameterError, match=name) as info:
+        cls(**kwargs)
+    assert "\n" not in str(info.value)

@@ -33,6 +33,9 @@ CASES = [
     ("ss", {"snr_def": "instant", "omin": 1.5, "gain_max": 10.0}, "ss_block"),
     ("ss", {"n_sub": 3, "sub_len": 5, "frame_len": 128, "hop": 32}, "ss_block"),
     ("ss", {"frame_len": 240, "hop": 80}, "ss_ms1994_frames"),  # not 2^k: numpy filter bank + compiled frames
+    ("ss", {"power_bins": 2, "gain_bins": 3, "gain_smooth": 0.6}, "ss_block"),  # cross-term averaging (issue 16)
+    ("ss", {"power_bins": 128, "gain_bins": 1, "gain_smooth": 0.3, "snr_def": "instant"}, "ss_block"),  # widest
+    ("ss", {"power_bins": 1, "gain_bins": 120, "gain_smooth": 0.7, "frame_len": 240, "hop": 80}, "ss_ms1994_frames"),
     ("ss-ms2001", {}, "ms2001_frames"),
     ("ss-ms2001", {"td": 0.3, "nu": 3, "snr_def": "instant"}, "ms2001_frames"),
     ("mmse-lsa", {}, "ms2001_frames"),
@@ -85,13 +88,14 @@ def test_compiled_step_equals_numpy_step(name, kwargs, kernel, rng, monkeypatch)
         assert abs(fast_state.beta - ref_state.beta) <= REL_TOL
 
 
-@pytest.mark.parametrize("name", ["ss", "superdirective"])
-def test_fused_state_survives_switching_to_numpy_and_back(name, rng, monkeypatch):
+@pytest.mark.parametrize(("name", "kwargs"), [("ss", {}), ("ss", {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.6}),
+                                             ("superdirective", {})])
+def test_fused_state_survives_switching_to_numpy_and_back(name, kwargs, rng, monkeypatch):
     """The fused kernels (``ss_block``, ``beam_block``) keep the filter bank's (and ss's tracker's) state
     in their own arrays; blocks longer than ``MAX_BLOCK`` (numpy path) in between must hand that state
     over both ways.  Oracle: the numpy step on every block (``MAX_BLOCK = 0``), 1e-12 of the output peak;
-    both paths really ran (block sizes on both sides of ``MAX_BLOCK``)."""
-    e = make(name)
+    both paths really ran (block sizes on both sides of ``MAX_BLOCK``); ss's smoothed gain hands over too."""
+    e = make(name, **kwargs)
     x = _two_mic_input(rng, n=3 * FS) if e.tags.channels_in == 2 else _one_mic_input(rng)
     n = x.shape[-1]
     edges = np.unique(np.concatenate([[0], np.minimum(np.cumsum(rng.integers(1, 700, size=n // 200)), n), [n]]))

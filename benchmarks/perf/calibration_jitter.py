@@ -2,7 +2,13 @@
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
         [--noises babble ...] [--blind | --direction] [--pooled] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE]
-        [--mismatch-seeds N] [--skip-mismatch] [--decompose]
+        [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
+
+``--ss KEY=JSON ...``: parameters of ``eb-robust-ss``'s ``ss`` stage (and of ``ss`` itself when it is one of
+``--systems``), e.g. ``power_bins=3 gain_bins=3 gain_smooth=0.4`` (issue 16: ss's averaged gain).
+``--systems``: the systems to run (default ``eb-robust eb-robust-ss``; the ss-floor table needs both); a
+one-channel system gets the reference mic.  ``--pesq``: also each row's narrow-band PESQ (MOS-LQO, as
+:func:`benchmarks.metrics.evaluate.evaluate_enhancer` scores the latency-aligned output), its mean per noise.
 
 ``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``beam_freeze='"level"'
 level_frontal_db=1``; JSON lists become tuples), for both systems and the mismatch rows.
@@ -41,6 +47,23 @@ On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise a
 
 Cost: every condition is rendered once and each system run twice (plus replays); the full
 ``phone`` (5 seeds, 90 conditions) takes a few minutes on one core.
+
+Measured with ``--ss power_bins=2 gain_bins=2 gain_smooth=0.55`` (ss's averaged gain,
+:mod:`enhancers.ss`; 1 December 2026, load average 8-10 on 2 cores, 5 seeds, built-in data / ``--data-dir
+/work/shared/data``):
+
+* ss's own jitter (``--set calibrate=false adapt_gate_db=-60 mix_alpha0=1.0 --snrs 15 20 25``), worst /
+  median over the 15 rows per noise, default ss -> averaged gain: babble -25.5 / -32.2 -> -33.2 / -40.0
+  (shared data -27.1 / -32.8 -> -34.2 / -40.3), factory -31.3 / -38.3 -> -38.6 / -45.7 (-31.3 -> -39.6),
+  factory-hall -28.9 / -34.7 -> -37.7 / -42.6 (-28.2 -> -36.0), wind -31.6 / -36.8 -> -39.5 / -44.9
+  (-31.5 -> -38.8): every row <= -33 dB.
+* ``eb-robust-ss`` with its default front end (``--systems ss eb-robust-ss --pesq``, all six SNRs,
+  ``--baseline`` from the same run without ``--ss``): mean replay SNR-I change babble -0.40 / -0.11 dB,
+  factory -0.18 / +0.08, factory-hall +0.11 / +0.38, wind -0.55 / -0.40; mean PESQ (nb MOS-LQO)
+  +0.093 / +0.037, +0.064 / +0.035, +0.058 / +0.059, +0.048 / +0.001.
+* ``ss`` alone (reference mic): worst jitter at 15 dB babble -22.6 -> -31.5 (shared -22.8 -> -30.7), wind
+  -22.1 -> -31.0 (-20.8 -> -23.6); SNR-I change -0.30 / -0.26 (babble), -0.64 / -0.55 (wind), +0.68 / +0.88
+  (factory); PESQ +0.06 to +0.13.
 """
 
 from __future__ import annotations
@@ -83,12 +106,18 @@ def _params(blind, overrides=None) -> dict:
     return {**(TALKER_BLIND if blind else {}), **(overrides or {})}
 
 
-def _make(name: str, blind, overrides=None):
-    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults, plus ``overrides``."""
+def _make(name: str, blind, overrides=None, ss=None):
+    """``eb-robust`` (or the chain with it as stage ``eb``), talker-blind or with its defaults, plus ``overrides``;
+    ``ss``: parameters of the chain's ``ss`` stage (or of ``ss`` itself).  Any other name: its defaults."""
     params = _params(blind, overrides)
-    if not params:
-        return make(name)
-    return make(name, **params) if name == "eb-robust" else make(name, eb=params)
+    if name == "ss":
+        return make(name, **(ss or {}))
+    if name == "eb-robust":
+        return make(name, **params)
+    if name == "eb-robust-ss":
+        stages = {**({"eb": params} if params else {}), **({"ss": ss} if ss else {})}
+        return make(name, **stages)
+    return make(name)
 
 
 def _snr(s_out, n_out, ref, latency) -> float:
@@ -97,15 +126,21 @@ def _snr(s_out, n_out, ref, latency) -> float:
     return M.snr_db(s_al, n_al)
 
 
-def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, overrides=None) -> list[dict]:
-    """One row per system: jitter, replay and Hagerman SNR-I of the condition (see module docstring)."""
-    images = render_group(cond, data_dir)[0]
-    rendered = images.mix(cond.snr_db)
-    s, n = rendered.speech_image, rendered.noise_image
-    ref = rendered.reference[0]
+def render_parts(cond, data_dir):
+    """``(speech image (2, n), noise image (2, n), reference (n,))`` of a ``phone`` condition at its SNR."""
+    rendered = render_group(cond, data_dir)[0].mix(cond.snr_db)
+    return rendered.speech_image, rendered.noise_image, rendered.reference[0]
+
+
+def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, overrides=None, ss=None,
+                      pesq: bool = False, parts=None) -> list[dict]:
+    """One row per system: jitter, replay and Hagerman SNR-I (and with ``pesq`` the output's PESQ) of the
+    condition (see module docstring); ``parts``: :func:`render_parts`' output when the caller has it."""
+    speech, noise, ref = parts if parts is not None else render_parts(cond, data_dir)
     rows = []
     for name in names:
-        e = with_geometry(_make(name, blind, overrides), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+        e = with_geometry(_make(name, blind, overrides, ss), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+        s, n = (x[:e.tags.channels_in] for x in (speech, noise))
         lat = int(e.tags.latency_samples)
         r1, r2 = e.process(s + n, cond.fs), e.process(s - n, cond.fs)
         w1s, w2s, w1n = r1.replay(s)[0], r2.replay(s)[0], r1.replay(n)[0]
@@ -118,6 +153,9 @@ def measure_condition(cond, data_dir, names=SYSTEMS, *, blind: bool = False, ove
                          jitter=speech_jitter_db(a1, a2),
                          replay=_snr(w1s, w1n, ref, lat) - snr_in,
                          hagerman=_snr(0.5 * (y1 + y2), 0.5 * (y1 - y2), ref, lat) - snr_in))
+        if pesq:
+            y_al, ref_al = M.align(y1, ref, latency_samples=lat)
+            rows[-1]["pesq"] = M.pesq_scores(ref_al, y_al, fs=cond.fs)["nb"]
     return rows
 
 
@@ -125,10 +163,7 @@ def swap_jitter(cond, data_dir, params: dict) -> dict[str, float]:
     """``eb-robust``'s jitter on one condition with everything from the ``s + n`` run but one adapted
     quantity from the ``s - n`` run: ``{"all": ..., "r_hat": ..., "beta": ... (with its EQ), "alpha": ...}``
     (dB; which quantity carries the talker).  Reads the per-frame record the enhancer replays."""
-    images = render_group(cond, data_dir)[0]
-    rendered = images.mix(cond.snr_db)
-    s, n = rendered.speech_image, rendered.noise_image
-    ref = rendered.reference[0]
+    s, n, ref = render_parts(cond, data_dir)
     e = with_geometry(make("eb-robust", **params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
     lat, fb, S = int(e.tags.latency_samples), e.filterbank, e.filterbank.analyze(s)
     rec1, rec2 = (e._step(x, e._init_state(cond.fs))[2] for x in (s + n, s - n))
@@ -146,12 +181,12 @@ def swap_jitter(cond, data_dir, params: dict) -> dict[str, float]:
 
 
 def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, overrides=None,
-               progress=False) -> list[dict]:
+               progress=False, names=SYSTEMS, ss=None, pesq: bool = False) -> list[dict]:
     rows = []
     for cond in load_sweep("phone").conditions():
         if cond.seed >= seeds or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
             continue
-        rows += measure_condition(cond, data_dir, blind=blind, overrides=overrides)
+        rows += measure_condition(cond, data_dir, names, blind=blind, overrides=overrides, ss=ss, pesq=pesq)
         if progress:
             print(".", end="", flush=True)
     if progress:
@@ -166,9 +201,9 @@ def _group(rows, *keys):
     return out
 
 
-def per_noise_means(rows) -> dict[str, float]:
-    """``{"system/noise": mean replay SNR-I}``."""
-    return {f"{s}/{nz}": float(np.mean([r["replay"] for r in g])) for (s, nz), g in sorted(_group(rows, "system", "noise").items())}
+def per_noise_means(rows, key: str = "replay") -> dict[str, float]:
+    """``{"system/noise": mean replay SNR-I}`` (or the mean of another column ``key``)."""
+    return {f"{s}/{nz}": float(np.mean([r[key] for r in g])) for (s, nz), g in sorted(_group(rows, "system", "noise").items())}
 
 
 def ss_floor(rows) -> dict[str, list[float]]:
@@ -217,6 +252,12 @@ def print_tables(rows, baseline: dict | None) -> None:
     for key, v in per_noise_means(rows).items():
         b = (baseline or {}).get(key)
         print(f"| {key} | {v:.2f} | " + ("" if b is None else f"{b:.2f} | {v - b:+.2f}") + " |")
+    if rows and "pesq" in rows[0]:
+        print("\nmean PESQ (narrow-band MOS-LQO) per noise\n\n| system/noise | PESQ | baseline | change |\n"
+              "| --- | ---: | ---: | ---: |")
+        for key, v in per_noise_means(rows, "pesq").items():
+            b = (baseline or {}).get("pesq:" + key)
+            print(f"| {key} | {v:.3f} | " + ("" if b is None else f"{b:.3f} | {v - b:+.3f}") + " |")
 
 
 def print_decomposition(rows, data_dir, params: dict) -> None:
@@ -256,7 +297,11 @@ def main(argv=None) -> int:
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
-    ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I to this JSON file")
+    ap.add_argument("--ss", nargs="*", default=[], metavar="KEY=JSON",
+                    help="parameters of eb-robust-ss's ss stage (and of ss), e.g. gain_smooth=0.4")
+    ap.add_argument("--systems", nargs="*", default=list(SYSTEMS), help="systems to run (default: eb-robust eb-robust-ss)")
+    ap.add_argument("--pesq", action="store_true", help="also the output's PESQ per row (mean per noise)")
+    ap.add_argument("--save-baseline", default=None, help="write the per-noise mean SNR-I (and PESQ) to this JSON file")
     ap.add_argument("--baseline", default=None, help="compare the per-noise mean SNR-I with this JSON file")
     ap.add_argument("--mismatch-seeds", type=int, default=1)
     ap.add_argument("--skip-mismatch", action="store_true")
@@ -268,19 +313,21 @@ def main(argv=None) -> int:
         overrides = {**DIRECTION, **overrides}
     if args.pooled:
         overrides = {**POOLED, **overrides}
+    ss = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.ss)}
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
-                      overrides=overrides, progress=True)
+                      overrides=overrides, progress=True, names=tuple(args.systems), ss=ss, pesq=args.pesq)
     baseline = None
     if args.baseline:
         with open(args.baseline) as f:
             baseline = json.load(f)
     mode = ("talker-blind " if args.blind else "defaults ") + json.dumps(_params(args.blind, overrides))
-    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(SYSTEMS)} conditions, "
-          f"calibration: {mode}")
+    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(args.systems)} "
+          f"conditions, calibration: {mode}, ss stage: {json.dumps(ss)}")
     print_tables(rows, baseline)
     if args.save_baseline:
+        pesq = {"pesq:" + k: v for k, v in per_noise_means(rows, "pesq").items()} if args.pesq else {}
         with open(args.save_baseline, "w") as f:
-            json.dump(per_noise_means(rows), f, indent=1)
+            json.dump({**per_noise_means(rows), **pesq}, f, indent=1)
     if args.decompose:
         print_decomposition(rows, args.data_dir, _params(args.blind, overrides))
     if not args.skip_mismatch:

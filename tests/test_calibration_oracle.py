@@ -1,0 +1,67 @@
+"""The oracle bound of issue 16 part 3 (benchmarks/perf/calibration_oracle.py).
+
+Oracle of the main test: in cells where the talker is exactly absent, the mixtures ``s + n`` and
+``s - n`` are the same up to sign, so a calibration that learns only there must give the *same*
+estimate in both runs, bit for bit (its averages are products of two spectra).
+"""
+
+import numpy as np
+import pytest
+
+import enhancers
+import enhancers.mic_calibration as mc
+from benchmarks.perf.calibration_oracle import oracle_learning, oracle_mask, oracle_params
+
+FS = 16000
+
+
+def _burst_scene(seed=0, seconds=3.0):
+    rng = np.random.default_rng(seed)
+    n = int(seconds * FS)
+    noise = rng.standard_normal((2, n))
+    noise[1] = 0.8 * noise[0] + 0.6 * noise[1]  # partly coherent, as diffuse noise is at low frequencies
+    speech = np.zeros((2, n))
+    lo, hi = n // 3, n // 2
+    burst = 3.0 * rng.standard_normal(hi - lo)  # +10 dB over the noise, the same at both mics
+    speech[:, lo:hi] = burst
+    return speech, noise
+
+
+def _estimates(e, x):
+    tr = e.process(x, FS).trace
+    return tr["rear_gain_db"], tr["rear_phase_deg"]
+
+
+def test_oracle_calibration_is_the_same_in_both_hagerman_runs():
+    s, n = _burst_scene()
+    e = enhancers.make("eb-robust", **oracle_params("calibration"))
+    mask = oracle_mask(s, n, e.filterbank, -40.0)
+    assert 0.05 < mask.mean() < 0.5  # the burst's cells, and only those, are kept out
+    with oracle_learning(mask, calibration_only=True):
+        g1, p1 = _estimates(e, s + n)
+        g2, p2 = _estimates(e, s - n)
+    assert np.array_equal(g1, g2) and np.array_equal(p1, p2)
+    # the same calibration with its own (blind) rules is moved by the talker: the oracle is what decides
+    g3, p3 = _estimates(e, s + n)
+    g4, p4 = _estimates(e, s - n)
+    assert np.max(np.abs(p3 - p4)) > 0.1
+
+
+def test_oracle_learning_restores_the_freeze_rules():
+    original = mc._freeze
+    with pytest.raises(RuntimeError), oracle_learning(np.zeros((10, 129), dtype=bool)):
+        assert mc._freeze is not original  # the oracle's rule inside the block
+        raise RuntimeError
+    assert mc._freeze is original  # and the calibration's own again after it, even after an error
+
+
+def test_oracle_mask_thresholds_the_talker_to_noise_ratio_per_cell():
+    rng = np.random.default_rng(3)
+    n = rng.standard_normal((2, 8192))
+    e = enhancers.make("eb-robust")
+    for ratio_db in (-30.0, -10.0):
+        s = 10 ** (ratio_db / 20) * rng.standard_normal((2, 8192))
+        # per-cell ratios scatter around ratio_db (two chi-square(4) powers): a threshold 20 dB below it keeps
+        # almost every cell out, one 20 dB above it almost none
+        assert oracle_mask(s, n, e.filterbank, ratio_db - 20.0)[4:-4].mean() > 0.95
+        assert oracle_mask(s, n, e.filterbank, ratio_db + 20.0)[4:-4].mean() < 0.05
