@@ -33,6 +33,9 @@ factory-hall / wind; load ~5 on 2 cores):
 * eb-robust-ss mean SNR-I (shared) 4.16 / 9.56 / 2.18 / 8.95 -> 4.43 / 9.04 / 1.96 / 8.87 dB; built-in
   5.40 / 9.83 / 1.67 / 8.32 -> 4.98 / 9.20 / 1.59 / 7.52 (without the ramp 5.28 / 9.49 / 1.67 / 9.06: the
   prior 0.5 held in wind's low band costs 1.5 dB there).
+* with ``eq_bound_beta=0`` too (the EQ no longer follows beta): beta worst -28.1 / -37.6 / -30.0 / -65.8
+  (shared), -35.7 / -41.1 / -17.9 / -96.2 (built-in); SNR-I 4.65 / 9.23 / 2.48 / 8.87 (shared), 5.18 / 9.52 /
+  2.10 / 7.52 (built-in).
 * issue 12's scenes (``benchmarks.perf.robust_eb``, 2 seeds): ideal / 1 dB-5 deg SNR-I at 135 deg 35.5 /
   32.9 dB (default 28.3 / 28.3), 240 deg 35.9 / 28.0 (26.5 / 26.0), diffuse 3.3 / 3.2, wind 8.6 / 8.2: better
   than the default with or without the mismatch, but one direction cannot absorb what the calibration
