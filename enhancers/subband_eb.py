@@ -88,6 +88,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from enhancers import fast_frames
+from enhancers.beam_pool import band_onehot, beta_from_cos, direction_beta_step, pooled_mix_step
 from enhancers.eq import look_eq_gain
 from enhancers.stft_stage import (
     TINY,
@@ -100,7 +101,7 @@ from enhancers.stft_stage import (
     smooth_frames,
 )
 from scenesim.errors import ParameterError
-from scenesim.validate import check_int, check_range
+from scenesim.validate import check_choice, check_int, check_range
 
 __all__ = ["SubbandElkoBeamformer", "SubbandState", "closed_form_beta", "subband_beta_step"]
 
@@ -111,14 +112,15 @@ def closed_form_beta(theta_deg: float, omega_t) -> np.ndarray:
     >>> round(float(closed_form_beta(120.0, 0.01)), 3)   # low frequency: (1 + c) / (1 - c) = 1/3
     0.333
     """
-    c = math.cos(math.radians(theta_deg))
-    wt = np.asarray(omega_t, dtype=float)
-    return np.sin(wt * (1 + c) / 2) / np.where(np.sin(wt * (1 - c) / 2) == 0, np.inf, np.sin(wt * (1 - c) / 2))
+    return beta_from_cos(math.cos(math.radians(theta_deg)), omega_t)
 
 
 @dataclass(frozen=True)
 class SubbandState:
-    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history."""
+    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history.
+
+    ``beta_model="direction"``: ``p_b`` holds the direction's averaged normaliser per band ``(B,)``.
+    """
 
     beta: np.ndarray
     p_b: np.ndarray
@@ -127,6 +129,8 @@ class SubbandState:
     alpha: np.ndarray | None = None  # (K,) das_mix: averages of Re(Yd conj(D)) and |D|^2
     p_d: np.ndarray | None = None
     p_m: np.ndarray | None = None  # (K,) das_mix: average of P_1 over the same (unfrozen) frames
+    cos_theta: np.ndarray | None = None  # (B,) beta_model="direction": cos of each band's rear direction
+    mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -139,6 +143,17 @@ def _gate_frozen(cF, cB, state: SubbandState, *, gate_db: float, lam: float, n_w
     """Per-bin gate: True where frozen; returns ``(frozen (F, K), state changes)``."""
     frozen, gate = ratio_gate(cF, cB, state=state.gate, gate_db=gate_db, lam=lam, n_window=n_window)
     return frozen, {"gate": gate}
+
+
+def _learn_frozen(cF, cB, state: SubbandState, *, gate_db, gate_lam, gate_window, also_frozen):
+    """``(frozen (F, K) or None, state changes)``: the gate's mask (``gate_db`` None: off) OR ``also_frozen``."""
+    changes = {}
+    frozen = None
+    if gate_db is not None:
+        frozen, changes = _gate_frozen(cF, cB, state, gate_db=gate_db, lam=gate_lam, n_window=gate_window)
+    if also_frozen is not None:
+        frozen = also_frozen if frozen is None else (frozen | also_frozen)
+    return frozen, changes
 
 
 def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float, eps: float,
@@ -172,13 +187,8 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     # beta + mu Re((cF - beta cB) cB*) / den = beta keep + gain
     gain = mu * (cF.real * cB.real + cF.imag * cB.imag) / den
     keep = 1.0 - mu * bb / den
-    changes = {}
-    frozen = None
-    if gate_db is not None:
-        frozen, changes = _gate_frozen(cF, cB, state, gate_db=gate_db,
-                                       lam=lam if gate_lam is None else gate_lam, n_window=gate_window)
-    if also_frozen is not None:
-        frozen = also_frozen if frozen is None else (frozen | also_frozen)
+    frozen, changes = _learn_frozen(cF, cB, state, gate_db=gate_db, gate_lam=lam if gate_lam is None else gate_lam,
+                                    gate_window=gate_window, also_frozen=also_frozen)
     if frozen is not None:
         gain[frozen] = 0.0
         keep[frozen] = 1.0
@@ -270,6 +280,11 @@ class SubbandEbParams(StftParams):
     mix_lam: float = 0.95
     mix_smooth_bins: int = 0
     mix_alpha0: float = 0.0
+    beta_model: str = "bin"
+    beta_bands_hz: tuple = ()
+    beta_norm: str = "frame"
+    mix_bands_hz: tuple | None = None
+    mix_ramp_cells: float = 0.0
     eq_bound_beta: float | None = None
 
     def _check_subband(self):
@@ -292,6 +307,7 @@ class SubbandEbParams(StftParams):
         check_range("mix_lam", self.mix_lam, 0.0, 1.0, hi_open=True)
         check_int("mix_smooth_bins", self.mix_smooth_bins, minimum=0, maximum=64)
         check_range("mix_alpha0", self.mix_alpha0, 0.0, 1.0)
+        self._check_pooling()
         if self.eq_bound_beta is not None:
             check_range("eq_bound_beta", self.eq_bound_beta, 0.0, 1.0)
         if not isinstance(self.eq_phase, bool):
@@ -301,6 +317,19 @@ class SubbandEbParams(StftParams):
         if self.das_mix and not self.eq_phase:
             raise ParameterError("das_mix", self.das_mix, "das_mix=True only with eq_phase=True (the two paths "
                                  "must share the look phase)")
+
+
+    def _check_pooling(self):
+        check_choice("beta_model", self.beta_model, ("bin", "direction"))
+        check_choice("beta_norm", self.beta_norm, ("frame", "learned"))
+        for name in ("beta_bands_hz", "mix_bands_hz"):
+            edges = getattr(self, name)
+            if edges is None and name == "mix_bands_hz":
+                continue
+            if not isinstance(edges, tuple) or any(not isinstance(e, (int, float)) or e <= 0 for e in edges) \
+                    or list(edges) != sorted(set(edges)):
+                raise ParameterError(name, edges, "a tuple of increasing band edges in Hz (> 0)")
+        check_range("mix_ramp_cells", self.mix_ramp_cells, 0.0, 1e9)
 
 
 class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
@@ -344,6 +373,54 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         look = np.abs(G) * np.abs(2.0 * np.sin(wt))
         return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
 
+    def _betas(self, cF, cB, X1, sub: SubbandState, fs: int, beta_frozen):
+        """``(betas (F, K), new state, frozen (F, K) or None, smoothed |X1|^2 (F, K))``: per bin or per band."""
+        p = self.params
+        gate_db = None if p.adapt_gate_db is None else float(p.adapt_gate_db)
+        gate_lam = float(p.lam) if p.gate_lam is None else float(p.gate_lam)
+        if p.beta_model == "bin":
+            extras: dict = {}
+            betas, sub = subband_beta_step(cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
+                                           gate_db=gate_db, gate_lam=gate_lam, gate_window=self._gate_window(fs),
+                                           extras=extras, also_frozen=beta_frozen)
+            return betas, sub, extras["frozen"], extras["p1"]
+        if cF.shape[0] == 0:
+            return np.zeros(cF.shape), sub, None, np.zeros(cF.shape)
+        frozen, changes = _learn_frozen(cF, cB, sub, gate_db=gate_db, gate_lam=gate_lam,
+                                        gate_window=self._gate_window(fs), also_frozen=beta_frozen)
+        pw1 = X1.real**2 + X1.imag**2
+        p1 = smooth_frames(pw1, float(p.lam), sub.p_1)
+        omega = bin_omega(int(p.frame_len))
+        onehot = band_onehot(omega / (2 * np.pi) * fs, p.beta_bands_hz)
+        c0 = sub.cos_theta
+        if c0 is None:  # beta0 at low frequencies: (1 + c) / (1 - c) = beta0
+            c0 = np.full(onehot.shape[1], (float(p.beta0) - 1.0) / (float(p.beta0) + 1.0))
+        betas, _, c, den = direction_beta_step(
+            cF, cB, pw1, None if frozen is None else ~frozen, c0, omega_t=omega * self.delay_samples(fs),
+            onehot=onehot, mu=float(p.mu), eps=float(p.eps), den0=sub.p_b if sub.cos_theta is not None else None,
+            norm_lam=float(p.lam) if p.beta_norm == "learned" else None)
+        values = dict(vars(sub))
+        values.update(cos_theta=c, p_b=den, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
+        return betas, SubbandState(**values), frozen, p1
+
+    def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int):
+        """``(alphas (F, K), new state)``: the DAS mix weight per bin or (``mix_bands_hz``) per band."""
+        p = self.params
+        if p.mix_bands_hz is None:
+            alphas, a, pd, pm = das_mix_step(Y, D, p1, frozen, sub, lam=float(p.mix_lam), eps=float(p.eps),
+                                             smooth_bins=int(p.mix_smooth_bins), alpha0=float(p.mix_alpha0))
+            changes = dict(alpha=a, p_d=pd, p_m=pm)
+        else:
+            onehot = band_onehot(bin_omega(int(p.frame_len)) / (2 * np.pi) * fs, p.mix_bands_hz)
+            st = [np.zeros(onehot.shape[1])] * 4 if sub.mix_n is None else [sub.alpha, sub.p_d, sub.p_m, sub.mix_n]
+            alphas, *st = pooled_mix_step(Y, D, p1, None if frozen is None else ~frozen, *st, onehot=onehot,
+                                          lam=float(p.mix_lam), eps=float(p.eps), alpha0=float(p.mix_alpha0),
+                                          ramp_cells=float(p.mix_ramp_cells))
+            changes = dict(zip(("alpha", "p_d", "p_m", "mix_n"), st))
+        values = dict(vars(sub))
+        values.update(changes)
+        return alphas, SubbandState(**values)
+
     def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None):
         """``(Y (F, K), record, new state)`` for the frames of one block.
 
@@ -352,25 +429,15 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
-        extras: dict = {}
-        betas, sub = subband_beta_step(
-            cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
-            gate_db=None if p.adapt_gate_db is None else float(p.adapt_gate_db),
-            gate_lam=None if p.gate_lam is None else float(p.gate_lam), gate_window=self._gate_window(fs),
-            extras=extras, also_frozen=beta_frozen)
+        betas, sub, frozen, p1 = self._betas(cF, cB, X1, sub, fs, beta_frozen)
         G = self._eq(betas, fs)
         Y = G * (cF - betas * cB)
         record = {"beta": betas, "eq": G}
         if p.das_mix and Y.shape[0]:
             D = Y - self._das(X1, X2, G, fs)
-            frozen = extras["frozen"]
             if mix_frozen is not None:
                 frozen = mix_frozen if frozen is None else (frozen | mix_frozen)
-            alphas, a, pd, pm = das_mix_step(Y, D, extras["p1"], frozen, sub, lam=float(p.mix_lam), eps=float(p.eps),
-                                          smooth_bins=int(p.mix_smooth_bins), alpha0=float(p.mix_alpha0))
-            values = dict(vars(sub))
-            values.update(alpha=a, p_d=pd, p_m=pm)
-            sub = SubbandState(**values)
+            alphas, sub = self._mix(Y, D, p1, frozen, sub, fs)
             Y = Y - alphas * D
             record["alpha"] = alphas
         return Y, record, sub
@@ -402,6 +469,15 @@ class SubbandElkoBeamformer(SubbandBase):
         per frame (0.95).
     mix_smooth_bins, mix_alpha0 : the DAS mix weight's averaging half-width over bins (default 0) and
         its prior (default 0: the differential path); see :func:`das_mix_step`.
+    beta_model, beta_bands_hz : ``"bin"`` (default: one NLMS beta per bin) or ``"direction"`` (opt-in,
+        :mod:`enhancers.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
+        per frame) and that model's band edges in Hz (default ``()``: one band).
+    beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
+        cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
+        :func:`enhancers.beam_pool.direction_beta_step`.
+    mix_bands_hz, mix_ramp_cells : the DAS mix weight per band (edges in Hz, ``()``: one band; default
+        None: per bin) from the band's unfrozen cells only, shrunk towards ``mix_alpha0`` until it has
+        learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam_pool.pooled_mix_step`.
 
     Examples
     --------

@@ -137,9 +137,15 @@ def test_vectorised_update_matches_slow_reference(gate, rng):
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
 
 
-def test_gated_streaming_equals_batch(rng):
-    """With the per-bin gate on, blocks of 1, 97 and 128 samples equal batch to 1e-9 (conformance runs defaults)."""
-    e = make("eb-subband", adapt_gate_db=3.0, gate_floor_s=0.1)
+@pytest.mark.parametrize("name, kwargs", [
+    ("eb-subband", dict(adapt_gate_db=3.0, gate_floor_s=0.1)),
+    ("eb-robust", dict(beta_model="direction", beta_bands_hz=(1000.0,), beta_norm="learned", mix_bands_hz=(),
+                       mix_ramp_cells=100.0)),  # the pooled modes (enhancers.beam_pool)
+])
+def test_gated_streaming_equals_batch(name, kwargs, rng):
+    """With the per-bin gate on (or the pooled modes), blocks of 1, 97 and 128 samples equal batch to 1e-9
+    (conformance runs defaults)."""
+    e = make(name, **kwargs)
     x = rng.standard_normal((2, 3000))
     y = e.process(x, FS).output
     for block in (1, 97, 128):

@@ -1,7 +1,7 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind | --direction] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE]
+        [--noises babble ...] [--blind | --direction] [--pooled] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE]
         [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
 
 ``--ss KEY=JSON ...``: parameters of ``eb-robust-ss``'s ``ss`` stage (and of ``ss`` itself when it is one of
@@ -19,6 +19,8 @@ both systems; without it, their defaults.
 
 ``--direction``: the calibrated direction rule (:data:`DIRECTION`, issue 16's third round: the
 forward/backward cardioid ratio of the calibrated pair per bin, no level rule) instead.
+
+``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam_pool`).
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -91,6 +93,12 @@ TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": T
 # thresholds measured (-2 dB: the lowest jitter; it freezes almost every cell of diffuse or incoherent noise)
 DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0,
              "ramp_over_band": True, "beam_freeze": "level"}
+
+# pooled beta and DAS weight (issue 16 part 3, enhancers/beam_pool.py): one rear direction for the whole band
+# (normaliser over the learned cells only, step 0.015 per frame) and the DAS weight in three bands (0-1, 1-4, 4-8 kHz)
+# held near its prior until a band has learned 300 cells
+POOLED = {"beta_model": "direction", "mu": 0.015, "beta_norm": "learned", "mix_bands_hz": (1000.0, 4000.0),
+          "mix_ramp_cells": 300.0}
 
 
 def _params(blind, overrides=None) -> dict:
@@ -285,6 +293,7 @@ def main(argv=None) -> int:
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
     ap.add_argument("--direction", action="store_true", help="the calibrated direction rule (DIRECTION)")
+    ap.add_argument("--pooled", action="store_true", help="pooled beta and DAS weight (POOLED), beside either mode")
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
@@ -302,6 +311,8 @@ def main(argv=None) -> int:
         overrides[k] = tuple(v) if isinstance(v, list) else v
     if args.direction:
         overrides = {**DIRECTION, **overrides}
+    if args.pooled:
+        overrides = {**POOLED, **overrides}
     ss = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.ss)}
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
                       overrides=overrides, progress=True, names=tuple(args.systems), ss=ss, pesq=args.pesq)
