@@ -63,3 +63,24 @@ def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
     assert _make("ss", False, {"calibrate": False}, ss).params == make("ss", **ss).params
     assert _make("eb-robust-ss", False).params == make("eb-robust-ss").params
     assert _make("ss", False).params == make("ss").params
+
+
+def test_combined_setting_is_every_piece_under_the_explicit_values():
+    """``--combined``: :data:`COMBINED` for ``eb-robust`` and :data:`COMBINED_SS` for the ``ss`` stage, with
+    ``--set`` / ``--ss`` winning; without it only the explicit values."""
+    import argparse
+
+    from benchmarks.perf.calibration_jitter import COMBINED, COMBINED_SS, mode_params
+
+    def args(**kw):
+        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False)
+        return argparse.Namespace(**{**base, **kw})
+
+    over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
+    assert over == {**COMBINED, "mix_alpha0": 0.5, "mix_bands_hz": (500, 2000)}
+    assert ss == {**COMBINED_SS, "gain_bins": 1}
+    assert mode_params(args(set=["mu=0.02"])) == ({"mu": 0.02}, {})
+    from enhancers.registry import make
+
+    make("eb-robust", **COMBINED)  # every field exists and is valid
+    make("ss", **COMBINED_SS)
