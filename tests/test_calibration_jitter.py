@@ -84,3 +84,17 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
     make("eb-robust", **COMBINED)  # every field exists and is valid
     make("ss", **COMBINED_SS)
+
+
+@pytest.mark.parametrize("argv, needle", [(["--set", "beta_model=bin"], "--set 'beta_model=bin'"),
+                                          (["--ss", "gainbins"], "--ss 'gainbins'")])
+def test_bad_key_json_is_one_line_not_a_traceback(argv, needle, capsys):
+    """A value that is not JSON (an unquoted string) or an item without ``=`` stops with argparse's one-line
+    error (exit status 2) naming the option and the item, before any condition is rendered."""
+    from benchmarks.perf.calibration_jitter import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert needle in err[-1] and "KEY=JSON" in err[-1] and not any("Traceback" in line for line in err)

@@ -304,13 +304,26 @@ def print_mismatch(seeds: int, blind: bool = False, overrides=None) -> None:
         print(f"| {per_seed[0][i][0]} | {ideal:.1f} | {mism:.1f} | {ideal - mism:.1f} |")
 
 
+def _key_json(items, option: str) -> dict:
+    """``{key: value}`` from ``KEY=JSON`` strings; ``ValueError`` naming the option and the item otherwise."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        try:
+            if not (key and sep):
+                raise ValueError("no '='")
+            out[key] = json.loads(value)
+        except ValueError as e:
+            raise ValueError(f"{option} {item!r}: expected KEY=JSON, e.g. beam_freeze='\"level\"' or mu=0.02 ({e})") from None
+    return out
+
+
 def mode_params(args) -> tuple[dict, dict]:
     """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
     (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
-    overrides = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.set)}
-    for k, v in overrides.items():  # JSON has no tuples; the band parameters are pairs
-        overrides[k] = tuple(v) if isinstance(v, list) else v
-    ss = {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.ss)}
+    overrides = {k: tuple(v) if isinstance(v, list) else v  # JSON has no tuples; the band parameters are pairs
+                 for k, v in _key_json(args.set, "--set").items()}
+    ss = _key_json(args.ss, "--ss")
     named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
              **(COMBINED if args.combined else {})}
     return {**named, **overrides}, {**(COMBINED_SS if args.combined else {}), **ss}
@@ -339,7 +352,10 @@ def main(argv=None) -> int:
     ap.add_argument("--mismatch-seeds", type=int, default=1)
     ap.add_argument("--skip-mismatch", action="store_true")
     args = ap.parse_args(argv)
-    overrides, ss = mode_params(args)
+    try:
+        overrides, ss = mode_params(args)
+    except ValueError as e:
+        ap.error(str(e))  # one line and the usage, exit status 2
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
                       overrides=overrides, progress=True, names=tuple(args.systems), ss=ss, pesq=args.pesq)
     baseline = None
