@@ -65,3 +65,11 @@ def test_oracle_mask_thresholds_the_talker_to_noise_ratio_per_cell():
         # almost every cell out, one 20 dB above it almost none
         assert oracle_mask(s, n, e.filterbank, ratio_db - 20.0)[4:-4].mean() > 0.95
         assert oracle_mask(s, n, e.filterbank, ratio_db + 20.0)[4:-4].mean() < 0.05
+
+
+def test_bad_set_is_one_line_not_a_traceback(capsys):
+    from benchmarks.perf.calibration_oracle import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--set", "mu=x"])
+    assert exc.value.code == 2 and "--set 'mu=x'" in capsys.readouterr().err.strip().splitlines()[-1]

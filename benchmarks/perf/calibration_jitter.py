@@ -318,12 +318,19 @@ def _key_json(items, option: str) -> dict:
     return out
 
 
+def parse_set(items, option: str = "--set") -> dict:
+    """``eb-robust`` parameters from ``KEY=JSON`` strings (JSON lists become tuples: the bands are pairs).
+
+    >>> parse_set(["mu=0.02", 'beam_freeze="level"', "mix_bands_hz=[1000, 4000]"])
+    {'mu': 0.02, 'beam_freeze': 'level', 'mix_bands_hz': (1000, 4000)}
+    """
+    return {k: tuple(v) if isinstance(v, list) else v for k, v in _key_json(items, option).items()}
+
+
 def mode_params(args) -> tuple[dict, dict]:
     """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
     (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
-    overrides = {k: tuple(v) if isinstance(v, list) else v  # JSON has no tuples; the band parameters are pairs
-                 for k, v in _key_json(args.set, "--set").items()}
-    ss = _key_json(args.ss, "--ss")
+    overrides, ss = parse_set(args.set), _key_json(args.ss, "--ss")
     named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
              **(COMBINED if args.combined else {})}
     return {**named, **overrides}, {**(COMBINED_SS if args.combined else {}), **ss}

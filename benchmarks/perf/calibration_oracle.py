@@ -155,7 +155,10 @@ def main(argv=None) -> int:
                     help="eb-robust parameters on top of the oracle's (default: the start-up ramp)")
     ap.add_argument("--mismatch-seeds", type=int, default=0, help="issue 12's scene, seeds 3, 13, ... (0: skip)")
     args = ap.parse_args(argv)
-    params = oracle_params(args.scope, {k: json.loads(v) for k, v in (a.split("=", 1) for a in args.set)})
+    try:
+        params = oracle_params(args.scope, cj.parse_set(args.set))
+    except ValueError as e:
+        ap.error(str(e))  # one line and the usage, exit status 2
     print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, SNRs {args.snrs}, "
           f"scope {args.scope}, eb-robust {json.dumps(params)}")
     for thr in args.threshold_db:
