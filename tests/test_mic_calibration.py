@@ -236,23 +236,29 @@ def test_learning_mask_holds_the_level_rule_before_and_after():
     assert last[1] == 10 - 30
 
 
-def test_blocks_match_one_pass_with_the_level_rule():
-    """Streaming (blocks of 1, 5, 37 and the rest) == one pass in the talker-blind mode (level rule, look
-    ahead, ramp): the carried state is complete.  Oracle: the same computation, to 1e-12."""
+def _assert_blocks_match_one_pass(e, x, splits):
+    """Streaming :func:`calibration_step` over the frame ranges ``splits`` (then the rest) == one pass over the
+    frames of ``x (2, n)``, estimates to 1e-12 and masks exactly (the carried state is complete)."""
     from enhancers.mic_calibration import calibration_init, calibration_step
 
-    s, n = _talker_bursts(32)
-    e = make("mic-calibration", **TALKER_BLIND)
-    X = e.filterbank.analyze((s + n)[:, : 3 * FS])
+    X = e.filterbank.analyze(x)
     delay = e.delay_samples(FS)
     whole, fr_whole, _ = calibration_step(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=delay)
     state, parts, masks = calibration_init(X.shape[2]), [], []
-    for lo, hi in ((0, 1), (1, 6), (6, 43), (43, X.shape[1])):
+    edges = [0, *splits, X.shape[1]]
+    for lo, hi in zip(edges[:-1], edges[1:]):
         r, fr, state = calibration_step(X[0, lo:hi], X[1, lo:hi], state, e.params, fs=FS, delay=delay)
         parts.append(r)
         masks.append(fr)
     np.testing.assert_array_equal(np.concatenate(masks), fr_whole)
     np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-12)
+
+
+def test_blocks_match_one_pass_with_the_level_rule():
+    """Streaming (blocks of 1, 5, 37 and the rest) == one pass in the talker-blind mode (level rule, look
+    ahead, ramp): the carried state is complete.  Oracle: the same computation, to 1e-12."""
+    s, n = _talker_bursts(32)
+    _assert_blocks_match_one_pass(make("mic-calibration", **TALKER_BLIND), (s + n)[:, : 3 * FS], (1, 6, 43))
 
 
 def test_level_rule_can_leave_the_beam_mask_alone():
@@ -427,20 +433,9 @@ def test_blocks_match_one_pass_with_the_direction_rule(beam):
     the chunks, here of 50 frames; threshold 0 dB: half the noise cells near it) == one pass with the direction rule: its chunks are counted from the stream start, so
     any blocking judges the same frames with the same estimate.
     Oracle: the same computation, to 1e-12."""
-    from enhancers.mic_calibration import calibration_init, calibration_step
-
     s, n = _talker_bursts(42)
     e = make("mic-calibration", **dict(DIRECTION, cal_frontal_beam=beam, cal_chunk=50, cal_frontal_db=0.0))
-    X = e.filterbank.analyze((s + n)[:, : 3 * FS])
-    delay = e.delay_samples(FS)
-    whole, fr_whole, _ = calibration_step(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=delay)
-    state, parts, masks = calibration_init(X.shape[2]), [], []
-    for lo, hi in ((0, 1), (1, 6), (6, 47), (47, 260), (260, X.shape[1])):
-        r, fr, state = calibration_step(X[0, lo:hi], X[1, lo:hi], state, e.params, fs=FS, delay=delay)
-        parts.append(r)
-        masks.append(fr)
-    np.testing.assert_array_equal(np.concatenate(masks), fr_whole)
-    np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-12)
+    _assert_blocks_match_one_pass(e, (s + n)[:, : 3 * FS], (1, 6, 47, 260))
 
 
 def test_rear_rule_learns_under_a_rising_rear_source():
@@ -556,18 +551,19 @@ def test_model_recovers_sensor_parameters_from_noiseless_averages(az):
 def test_blocks_match_one_pass_with_the_model():
     """Streaming (blocks of 1, 5, 37 and the rest) == one pass with ``model="hp1"`` and its pooled ramp: the
     fit's warm start (``CalibrationState.theta``) is carried.  Oracle: the same computation, to 1e-12."""
-    from enhancers.mic_calibration import calibration_init, calibration_step
-
     s, n = _talker_bursts(32)
-    e = make("mic-calibration", model="hp1", ramp_frames=2000.0)
-    X = e.filterbank.analyze((s + n)[:, : 2 * FS])
-    delay = e.delay_samples(FS)
-    whole, _, _ = calibration_step(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=delay)
-    state, parts = calibration_init(X.shape[2]), []
-    for lo, hi in ((0, 1), (1, 6), (6, 43), (43, X.shape[1])):
-        r, _, state = calibration_step(X[0, lo:hi], X[1, lo:hi], state, e.params, fs=FS, delay=delay)
-        parts.append(r)
-    np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-12)
+    _assert_blocks_match_one_pass(make("mic-calibration", model="hp1", ramp_frames=2000.0), (s + n)[:, : 2 * FS],
+                                  (1, 6, 43))
+
+
+def test_blocks_match_one_pass_with_the_rear_rule():
+    """Streaming (blocks of 1, 5, 37 and the rest) == one pass with the rear rule and the level rule's look
+    ahead: the rear decisions of the pending frames (``CalibrationState.pend_rear``) are carried.  Oracle: the
+    same computation, to 1e-12 (and masks exactly)."""
+    s, n = _talker_bursts(32)
+    rear = 0.5 * plane_wave_pair(np.random.default_rng(5).standard_normal(s.shape[1]), az_deg=150)
+    e = make("mic-calibration", freeze_level_db=3.0, cal_rear_db=6.0, level_ahead_s=0.1, ramp_frames=40.0)
+    _assert_blocks_match_one_pass(e, (s + n + rear)[:, : 3 * FS], (1, 6, 43))
 
 
 def test_robust_fit_ignores_a_few_bins_off_the_model():
