@@ -98,9 +98,10 @@ def oracle_params(scope: str, overrides=None) -> dict:
     return {**ORACLE_PARAMS, **(CALIBRATION_ONLY if scope == "calibration" else {}), **(overrides or {})}
 
 
-def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params: dict) -> list[dict]:
-    """:func:`benchmarks.perf.calibration_jitter.measure_condition`'s rows under the oracle, plus
-    ``learned`` (the fraction of cells the mask leaves open)."""
+def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params: dict,
+                      scope: str = "all") -> list[dict]:
+    """:func:`benchmarks.perf.calibration_jitter.measure_condition`'s rows under the oracle (``scope``:
+    ``"all"`` or ``"calibration"``), plus ``learned`` (the fraction of cells the mask leaves open)."""
     fb = enhancers.make("eb-robust", **params).filterbank
     rows = []
     for cond in load_sweep("phone").conditions():
@@ -108,13 +109,13 @@ def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params
             continue
         parts = cj.render_parts(cond, data_dir)
         mask = oracle_mask(parts[0], parts[1], fb, threshold_db)
-        with oracle_learning(mask, calibration_only=params.get("beam_freeze") == "cardioid"):
+        with oracle_learning(mask, calibration_only=scope == "calibration"):
             new = cj.measure_condition(cond, data_dir, overrides=params, parts=parts)
         rows += [{**r, "learned": float(1.0 - mask.mean())} for r in new]
     return rows
 
 
-def mismatch_losses(seed: int, threshold_db: float, params: dict) -> dict[str, tuple[float, float]]:
+def mismatch_losses(seed: int, threshold_db: float, params: dict, scope: str = "all") -> dict[str, tuple[float, float]]:
     """Issue 12's scene (:func:`benchmarks.perf.robust_eb.snr_improvements`' conditions) under the oracle:
     ``{noise: (ideal SNR-I, mismatched SNR-I)}`` (dB, scored after 8 s of 20 s)."""
     start, out = int(8.0 * rb.FS), {}
@@ -124,8 +125,7 @@ def mismatch_losses(seed: int, threshold_db: float, params: dict) -> dict[str, t
         for gain_db, phase_deg in ((0.0, 0.0), (1.0, 5.0)):
             s, v = (rb.rear_mismatch(c, gain_db=gain_db, phase_deg=phase_deg) for c in (s0, v0))
             e = enhancers.make("eb-robust", **params)
-            with oracle_learning(oracle_mask(s, v, e.filterbank, threshold_db),
-                                 calibration_only=params.get("beam_freeze") == "cardioid"):
+            with oracle_learning(oracle_mask(s, v, e.filterbank, threshold_db), calibration_only=scope == "calibration"):
                 r = e.process(s + v, rb.FS)
             lat = e.tags.latency_samples
             snr_in = 10 * np.log10(rb._power(s[0], start) / rb._power(v[0], start))
@@ -163,9 +163,9 @@ def main(argv=None) -> int:
           f"scope {args.scope}, eb-robust {json.dumps(params)}")
     for thr in args.threshold_db:
         print_rows(phone_oracle_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, threshold_db=thr,
-                                     params=params), thr)
+                                     params=params, scope=args.scope), thr)
         for k in range(args.mismatch_seeds):
-            losses = mismatch_losses(3 + 10 * k, thr, params)
+            losses = mismatch_losses(3 + 10 * k, thr, params, args.scope)
             print(f"\nmismatch scene, seed {3 + 10 * k}: " + "; ".join(
                 f"{kind} ideal {a:.1f} / mismatched {b:.1f} (loss {a - b:.1f})" for kind, (a, b) in losses.items()))
     return 0
