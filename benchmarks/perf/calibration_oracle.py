@@ -126,10 +126,7 @@ def mismatch_losses(seed: int, threshold_db: float, params: dict, scope: str = "
             s, v = (rb.rear_mismatch(c, gain_db=gain_db, phase_deg=phase_deg) for c in (s0, v0))
             e = enhancers.make("eb-robust", **params)
             with oracle_learning(oracle_mask(s, v, e.filterbank, threshold_db), calibration_only=scope == "calibration"):
-                r = e.process(s + v, rb.FS)
-            lat = e.tags.latency_samples
-            snr_in = 10 * np.log10(rb._power(s[0], start) / rb._power(v[0], start))
-            res.append(10 * np.log10(rb._power(r.replay(s), start + lat) / rb._power(r.replay(v), start + lat)) - snr_in)
+                res.append(rb.replay_snr_i(e, s, v, start))
         out[kind] = (res[0], res[1])
     return out
 

@@ -93,6 +93,15 @@ def _scene(noise_kind: str, seconds: float, seed: int):
     return s, v
 
 
+def replay_snr_i(e, s: np.ndarray, v: np.ndarray, start: int) -> float:
+    """SNR-I (dB) of enhancer ``e`` on ``s + v`` (``(2, n)`` speech and noise images), scored from sample
+    ``start`` on: the replayed speech over the replayed noise (after the latency) minus the front mic's."""
+    r = e.process(s + v, FS)
+    lat = e.tags.latency_samples
+    snr_out = 10 * np.log10(_power(r.replay(s), start + lat) / _power(r.replay(v), start + lat))
+    return snr_out - 10 * np.log10(_power(s[0], start) / _power(v[0], start))
+
+
 def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3, params=None) -> list[tuple]:
     """Rows ``(noise, mismatch label, SNR-I per enhancer...)`` for one seed (``params``: per-name overrides)."""
     rows = []
@@ -101,14 +110,8 @@ def snr_improvements(names, *, seconds: float, settle_s: float, seed: int = 3, p
         for mism in ((0.0, 0.0), (1.0, 5.0)):
             s, v = (rear_mismatch(c, gain_db=mism[0], phase_deg=mism[1]) for c in (s0, v0))
             row = [kind, f"{mism[0]:g} dB / {mism[1]:g} deg"]
-            start = int(settle_s * FS)
-            snr_in = 10 * np.log10(_power(s[0], start) / _power(v[0], start))
             for name in names:
-                e = enhancers.make(name, **(params or {}).get(name, {}))
-                r = e.process(s + v, FS)
-                lat = e.tags.latency_samples
-                snr_out = 10 * np.log10(_power(r.replay(s), start + lat) / _power(r.replay(v), start + lat))
-                row.append(snr_out - snr_in)
+                row.append(replay_snr_i(enhancers.make(name, **(params or {}).get(name, {})), s, v, int(settle_s * FS)))
             rows.append(tuple(row))
     return rows
 
