@@ -217,6 +217,37 @@ seeds).  The whole ``eb-robust-ss`` jitter is then beta's (worst -16 dB on ``../
 ramp (``ramp_frames=2000``) lowers the ``r_hat`` part by 0-10 dB more but costs 3.4 dB of loss at 135
 deg (the DAS weight learned during the ramp stays).  ``kernel_supports`` sends the mode to the numpy step.
 
+Frame rule (issue 16, fifth round; off by default: ``frame_q_db=None``).  What the oracle instrument
+(:mod:`benchmarks.perf.calibration_oracle`) showed to suffice is not a per-cell detector but a per-*frame*
+one: learning only in frames where the talker is >= 10 dB below the noise over 125 Hz-4 kHz (no hold) puts
+every ``eb-robust-ss`` row at <= -36 dB on ``../shared/data`` with more SNR-I than the default.  The frame
+rule is that decision made blind: the forward/backward cardioid power ratio of the *uncalibrated* pair
+summed over ``frame_band_hz`` (1-4 kHz, 48 bins: a diffuse or incoherent field gives 0 +- 1 dB at any
+level, a rear source less, the talker at 45 deg up to +13 dB), smoothed like the other rules, against the
+absolute ``frame_q_db``; the weight of a frame is held at its minimum over ``level_hang_s`` before and
+``level_ahead_s`` after it (:func:`_frame_weights`; the averages run that far behind), and it replaces the
+cardioid and level rules for the averages.  It cannot see a talker 10-20 dB below the noise by itself
+(the ratio moves by < 1 dB there); the hold around the frames it does see covers those, so it rests on
+speech being loud next to where it is quiet.  ``frame_soft_db`` grades the weight linearly below the
+threshold; ``frame_snr_db=(lo, hi)`` hands the averages back to the cardioid rules' cells where the
+stream's estimated input SNR is below ``lo`` (:func:`_frame_snr_share`: the talker x noise terms are
+masked by the noise there, and a talker leaves most cells of its frames to it).  ``eb-robust`` then
+learns its DAS weight on the same weights (``mix_model="delayed"``, :mod:`enhancers.subband_eb`).
+Measured (``python -m benchmarks.perf.calibration_jitter --frame --seeds 5 [--data-dir ../shared/data]
+--baseline <default run>``, every noise and SNR, 2 December 2026, load ~2-4 on 2 cores; :data:`FRAME
+<benchmarks.perf.calibration_jitter.FRAME>`, ``frame_q_db=5``, hold 0.2 s, look ahead 0.24 s): on
+``../shared/data`` ``eb-robust-ss``'s jitter at >= 15 dB worst -29.1 dB, median -39.8, 3 of 60 rows above
+-30 (all within 0.9 dB of it; the default -1.2 dB, COMBINED -12.4 with 16 rows), replay = Hagerman within 3
+dB on 100 %, SNR-I vs the default babble -0.4, factory -5.7, factory-hall +0.9, wind +0.9 dB; issue 12's
+mismatch loss 3.8 / 7.8 / 0.3 dB at 135 / 240 deg / diffuse (COMBINED 28.5 / 30.3 / 1.4).  On the built-in
+data worst -12.8 dB (5 of 60 rows above -30: a synthetic voice's onset that crosses the threshold late),
+agreement 99 %, SNR-I babble -2.0, factory -9.2, hall +0.8, wind -0.1 dB.  What it costs: factory,
+whose SNR-I comes from the null of one plane wave that the default learns *during* speech at low input
+SNR (20-25 dB of SNR-I at 0 dB there), and whose synthetic recipe has impulsive hits that a DAS weight
+still at its prior in the first 0.24 s passes.  :data:`FRAME_LOWSNR
+<benchmarks.perf.calibration_jitter.FRAME_LOWSNR>` buys it back with ``frame_snr_db``, the fast start and
+per-bin beta -- and lets the talker back in at 15-25 dB: the trade is measured in issue 16's closing note.
+
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
 without the level rule's look ahead: the mask beta and the DAS weight use).
@@ -242,6 +273,7 @@ from enhancers.stft_stage import (
     bin_omega,
     gate_init,
     power_ratio_gate,
+    smooth_frames,
 )
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_range
@@ -284,6 +316,10 @@ class CalibrationState:
     q_rear: GateState | None = None  # the rear rule's smoothed cardioid powers (cal_rear_db)
     pend_rear: np.ndarray | None = None  # bool (D, K): the rear rule's decisions of the pending frames
     theta: np.ndarray | None = None  # (4,) model="hp1": the last fit (calibration_model), None: the prior
+    q_frame: GateState | None = None  # the frame rule's smoothed band cardioid powers (frame_q_db), (1,)
+    w_tail: np.ndarray | None = None  # (H + D,) the frame rule's weights of the frames before the block
+    snr: np.ndarray | None = None  # (4,) frame_snr_db: band power of talker / other frames and their counts
+    heard: bool = False  # the frame rule has weighed a frame below 1 (the talker was heard) since the stream start
 
 
 @dataclass(frozen=True)
@@ -324,11 +360,15 @@ class CalibrationParams(StftParams):
     model_iter: int = 3
     model_prior: float = 1000.0
     model_robust: float | None = 0.05
+    frame_q_db: float | None = None
+    frame_band_hz: tuple[float, float] = (1000.0, 4000.0)
+    frame_soft_db: float = 0.0
+    frame_snr_db: tuple | None = None
 
     @property
     def talker_blind(self) -> bool:
-        """True when a level or calibrated-direction rule (the talker-blind mode, issue 16) is on."""
-        return self.freeze_level_db is not None or self.cal_frontal_db is not None
+        """True when a level, calibrated-direction or frame rule (the talker-blind mode, issue 16) is on."""
+        return self.freeze_level_db is not None or self.cal_frontal_db is not None or self.frame_q_db is not None
 
     def _check_calibration(self):
         self._check_stft()
@@ -378,6 +418,15 @@ class CalibrationParams(StftParams):
         check_range("model_prior", self.model_prior, 0.0, 1e9, lo_open=True)
         if self.model_robust is not None:
             check_range("model_robust", self.model_robust, 0.0, 10.0, lo_open=True)
+        if self.frame_q_db is not None:
+            check_range("frame_q_db", self.frame_q_db, -60.0, 60.0)
+        _check_band("frame_band_hz", self.frame_band_hz)
+        check_range("frame_soft_db", self.frame_soft_db, 0.0, 60.0)
+        if self.frame_snr_db is not None:
+            if not (isinstance(self.frame_snr_db, tuple) and len(self.frame_snr_db) == 2):
+                raise ParameterError("frame_snr_db", self.frame_snr_db, "a pair (lo_db, hi_db)")
+            lo = check_range("frame_snr_db", self.frame_snr_db[0], -100.0, 100.0)
+            check_range("frame_snr_db", self.frame_snr_db[1], lo, 100.0, lo_open=True)
 
 
 def _check_band(name: str, band) -> None:
@@ -432,6 +481,65 @@ def _pending(state: CalibrationState, n_ahead: int):
     return (np.concatenate([np.zeros((pad, 3, K), dtype=complex), state.pend_x]),
             np.concatenate([np.ones((pad, K), dtype=bool), state.pend_card]),
             np.concatenate([np.zeros((pad, K), dtype=bool), state.pend_loud]))
+
+
+def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, n_ahead: int,
+                   changes: dict) -> np.ndarray:
+    """``(held (F,), kappa (F,) or None, now (F,))``: the frame rule's weights of the frames averaged now (the
+    first ``F`` of the ``D`` pending and the block's ``F``), each frame's :func:`_frame_rule` weight held --
+    the minimum over the ``level_hang_s`` frames before it and the ``level_ahead_s`` (= ``D``) after it, so
+    that a talker's onset and decay around a loud frame are not learned either; ``frame_snr_db``'s share
+    of the rule (:func:`_frame_snr_share`); the block's own frames' weights, not held, until the first frame
+    the rule weighs below 1 since the stream start (0 from there on).  ``changes`` gets the new state."""
+    w, changes["q_frame"], talker, power = _frame_rule(X1, X2, state, p, fs=fs, delay=delay)
+    n_hang = int(round(float(p.level_hang_s) * fs / int(p.hop)))
+    tail = state.w_tail if state.w_tail is not None else np.ones(n_hang + n_ahead)  # the stream start: no hold
+    seq = np.concatenate([tail, w])
+    changes["w_tail"] = seq[len(w):]
+    held = np.lib.stride_tricks.sliding_window_view(seq, n_hang + n_ahead + 1).min(axis=1)[:len(w)]
+    # the block's frames the rule heard the talker in or in the hold after (no look ahead: for beta, which
+    # cannot wait; beam_freeze="level")
+    talking = np.lib.stride_tricks.sliding_window_view(seq[n_ahead:], n_hang + 1).min(axis=1)[:len(w)] < 1.0
+    changes["talking"] = talking
+    # the block's own frames until the talker is first heard (a stream starts on the noise: what the DAS weight
+    # may learn at once, mix_fast_cells); nothing after
+    quiet = ~np.logical_or.accumulate(w < 1.0) & (not state.heard)
+    changes["heard"] = bool(state.heard or (w < 1.0).any())
+    now = w * quiet
+    if p.frame_snr_db is None:
+        return held, None, now
+    kappa, changes["snr"] = _frame_snr_share(talker, power, state.snr, p, fs=fs)
+    changes["talking"] = talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
+    return held, kappa, now
+
+
+#: time constant (s) of the frame rule's input-SNR estimate (frame_snr_db): a few utterances
+SNR_TAU_S = 3.0
+
+
+def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int):
+    """``frame_snr_db = (lo, hi)``: the share ``kappa (F,)`` of the frame rule in the averages' weights, 0 where
+    the stream's estimated input SNR is below ``lo`` dB, 1 above ``hi``, linear between; and the new state.
+
+    The estimate: one-pole averages (``SNR_TAU_S``, a running mean at first) of the power over
+    ``frame_band_hz`` in the frames the rule marks as the talker's and in the others; their ratio is
+    ``(S + N) / N`` of the talker's frames -- the input SNR from ~10 dB up, ~3-5 dB at 0 dB.  Why: the
+    speech x noise cross terms that make an estimate learned during speech differ between ``s + n`` and
+    ``s - n`` are masked by the noise at low input SNR (issue 16 asks for <= -30 dB of jitter from 15 dB
+    up), while there the cells a talker leaves to the noise are most of a frame and worth most (a single
+    plane wave's null: 20-25 dB at 0 dB input).  Until both kinds of frame were seen: the frame rule."""
+    state = np.zeros(4) if snr is None else snr.copy()
+    one_pole = 1.0 - math.exp(-int(p.hop) / (fs * SNR_TAU_S))
+    lo, hi = (float(v) for v in p.frame_snr_db)
+    kappa = np.ones(len(power))
+    for i, (is_talker, pw) in enumerate(zip(talker, power)):  # a few scalars per frame
+        j = 0 if is_talker else 2
+        state[j + 1] += 1.0
+        state[j] += max(1.0 / state[j + 1], one_pole) * (pw - state[j])
+        if state[1] > 0 and state[3] > 0:
+            snr_db = 10.0 * math.log10((state[0] + TINY) / (state[2] + TINY))
+            kappa[i] = min(1.0, max(0.0, (snr_db - lo) / max(hi - lo, TINY)))
+    return kappa, state
 
 
 def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_hang: int, n_ahead: int):
@@ -529,6 +637,35 @@ def _freeze(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, d
     loud, level_changes = _level_rule(X1, X2, state, p, fs=fs, lam=float(p.gate_lam_cal), frontal=frontal)
     return per_bin | whole, loud, {"q_bin": q, "q_band": w, **changes, **level_changes}
 
+
+def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
+    """The frame rule: ``(weights (F,), smoother state)``, how much each frame may be learned from.
+
+    ``q = 10 log10(P_F / P_B)``, the forward/backward cardioid powers summed over ``frame_band_hz``
+    (1-4 kHz: 48 bins, where an uncalibrated 1 dB / 5 deg pair still has a backward null ~15 dB deep)
+    and one-pole smoothed (``gate_lam_cal``), against the absolute ``frame_q_db``: a diffuse or
+    incoherent field gives ~0 dB (+-1 dB over 48 bins), a rear source less, the talker at 45 deg up
+    to ~+13 dB.  Level-free (babble's and a machine's level swings do not move it) and one decision
+    for the whole frame: the talker is broadband, and where it is absent ``s + n`` and ``s - n`` are
+    the same up to sign in every bin (issue 16).  The weight is 1 below ``frame_q_db -
+    frame_soft_db``, 0 above ``frame_q_db``, linear in dB between (``frame_soft_db = 0``: a hard
+    threshold): a frame near the threshold, where the talker x noise cross term decides on which side
+    ``q`` falls, then weighs little in either run instead of all in one and nothing in the other.
+    """
+    k = _band(p, fs, p.frame_band_hz)
+    ph = np.exp(-1j * bin_omega(int(p.frame_len))[k] * delay)
+    a, b = X1[:, k], X2[:, k]
+    cF, cB = a - ph * b, b - ph * a
+    pf = (cF.real**2 + cF.imag**2).sum(axis=1, keepdims=True)
+    pb = (cB.real**2 + cB.imag**2).sum(axis=1, keepdims=True)
+    gate = state.q_frame if state.q_frame is not None else gate_init(1)
+    sf = smooth_frames(pf, float(p.gate_lam_cal), gate.pf)
+    sb = smooth_frames(pb, float(p.gate_lam_cal), gate.pb)
+    q = 10.0 * np.log10((sf[:, 0] + TINY) / (sb[:, 0] + TINY))
+    top, width = float(p.frame_q_db), float(p.frame_soft_db)
+    w = (q < top).astype(float) if width <= 0 else np.clip((top - q) / width, 0.0, 1.0)
+    new = GateState(pf=sf[-1].copy(), pb=sb[-1].copy(), sf=gate.sf, sb=gate.sb) if len(q) else gate
+    return w, new, q >= top, (a.real**2 + a.imag**2).sum(axis=1)
 
 def _propagation_slope(s21: np.ndarray, band: slice, max_slope: float) -> np.ndarray:
     """Propagation phase slope (rad per bin) of ``s21 (F, K)`` over ``band``, ``(F,)``.
@@ -651,7 +788,8 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     return r_hat, card if p.beam_freeze == "cardioid" else card | loud, state
 
 
-def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
+def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float,
+                           learn_out: list | None = None):
     """Estimate ``r_hat`` for the frames of one block, with the causal masks of the two kinds of rule.
 
     Parameters
@@ -668,10 +806,15 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
     -------
     r_hat : complex (F, K); cardioid : bool (F, K), the cardioid rules' decisions; level : bool (F, K),
     the level rule and its hangover (no look ahead: what beta and the DAS weight, which cannot wait,
-    use); new state.
+    use); new state.  With ``learn_out`` (a list), a pair is appended to it: the weights ``(F, K)`` in
+    ``[0, 1]`` with which the averages learned the frames they reached in this block (``level_ahead_s``
+    behind the block's), and the rules' weights of the block's own frames without hold or look ahead
+    (the frame rule's until it first hears the talker, or where neither mask froze them):
+    ``mix_model="delayed"`` learns the DAS weight on the first, and on the second while the first has few
+    cells (``mix_fast_cells``).
     """
     if (p.cal_frontal_db is None and p.cal_rear_db is None) or X1.shape[0] == 0:
-        return _masks_step(X1, X2, state, p, fs=fs, delay=delay)
+        return _masks_step(X1, X2, state, p, fs=fs, delay=delay, learn_out=learn_out)
     # the calibrated direction rule needs the estimate so far: chunks of cal_chunk frames counted from
     # the stream start (so blocks of any size give the same chunks), each judged with the estimate
     # applied at its start (state.r_dir)
@@ -684,7 +827,7 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
         extra, rear, changes = _calibrated_frontal(X1[lo:hi], X2[lo:hi], state, p, delay=delay, fs=fs)
         state = dataclasses.replace(state, **changes)
         r, card, loud, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, extra=extra,
-                                           rear=rear)
+                                           rear=rear, learn_out=learn_out)
         parts.append((r, card, loud))
         lo = hi
     return (*(np.concatenate([q[i] for q in parts]) for i in range(3)), state)
@@ -728,12 +871,14 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
 
 
 def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None,
-                rear=None):
+                rear=None, learn_out: list | None = None):
     """:func:`calibration_masks_step` for one chunk; ``extra (F, K)``: more cells the averages skip (or None);
     ``rear (F, K)``: cells the averages learn from whatever the other rules say (or None)."""
     F, K = X1.shape
     if F == 0:
         none = np.zeros((0, K), dtype=bool)
+        if learn_out is not None:
+            learn_out.append((np.zeros((0, K)), np.zeros((0, K))))
         return np.ones((0, K), dtype=complex), none, none, state
     band = _band(p, fs)
     card, loud, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
@@ -744,6 +889,8 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         loud = loud | extra
     elif extra is not None:
         card_learn = card | extra
+    if p.frame_q_db is not None and p.frame_snr_db is None:  # the frame rule replaces the cardioid rules
+        card_learn = np.zeros_like(card_learn)  # (the stream start's placeholders stay frozen)
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
     # the averages run level_ahead_s (D frames) behind the input, so the level rule can freeze
     # a frame for what comes after it too (a talker's onset rises over several frames)
@@ -752,18 +899,41 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn]), np.concatenate([pend_loud, loud])
     learn_frozen, level_now, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
+    frame_w = kappa = None
+    if p.frame_q_db is not None:  # the frame rule replaces the cardioid rules; its weight is held like the level rule
+        frame_w, kappa, frame_now = _frame_weights(X1, X2, state, p, fs=fs, delay=delay, n_ahead=n_ahead,
+                                                   changes=changes)
+        card = np.zeros_like(card)
+        level_now = level_now | changes.pop("talking")[:, None]
+    rear_now = None
     if rear is not None:  # judged on the block's frames, which the averages reach n_ahead frames later
         pend_rear = state.pend_rear if state.pend_rear is not None else np.zeros((n_ahead, rear.shape[1]), dtype=bool)
         rears = np.concatenate([pend_rear, rear])
-        learn_frozen = learn_frozen & ~rears[:F]
+        rear_now = rears[:F]
+        learn_frozen = learn_frozen & ~rear_now
         changes["pend_rear"] = rears[F:]
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
     # 1 - lam, then 1 - lam; 0 where frozen
     active = ~learn_frozen
-    counts = state.counts + np.cumsum(active, axis=0)
-    c = np.where(active, np.maximum(1.0 / np.maximum(counts, 1), 1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s)))),
-                 0.0)
+    one_pole = 1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s)))
+    if frame_w is None:
+        counts = state.counts + np.cumsum(active, axis=0)
+        c = np.where(active, np.maximum(1.0 / np.maximum(counts, 1), one_pole), 0.0)
+        if learn_out is not None:
+            learn_out.append((active.astype(float), (~(card | level_now)).astype(float)))
+    else:  # weighted: the running mean of the weights' sum until it reaches the one-pole, times the weight
+        if kappa is None:
+            wt = active * frame_w[:, None]
+        else:  # frame_snr_db: from the cardioid rules' cells at low input SNR to the frame rule's at high
+            real = (state.n_frames + np.arange(F)) >= n_ahead  # not the stream start's placeholders
+            wt = kappa[:, None] * (real * frame_w)[:, None] + (1.0 - kappa[:, None]) * active
+        if rear_now is not None:  # a rear-dominated cell is learned in a talker's frame too
+            wt = np.maximum(wt, rear_now)
+        if learn_out is not None:
+            learn_out.append((wt, np.broadcast_to(frame_now[:, None], wt.shape).copy()))
+        counts = state.counts + np.cumsum(wt, axis=0)
+        c = np.where(wt > 0, wt * np.maximum(1.0 / np.maximum(counts, TINY), one_pole), 0.0)
     every = int(p.estimate_every)
     is_update = (state.n_frames + np.arange(F)) % every == 0
     avg = np.empty((int(is_update.sum()), 3, K), dtype=complex)

@@ -58,6 +58,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import numpy as np
+
 from enhancers import fast_frames
 from enhancers.chain import Chain
 from enhancers.mic_calibration import (
@@ -128,10 +130,14 @@ class RobustElkoBeamformer(SubbandBase):
         X1, X2 = X[0], X[1]
         record = {}
         mix_frozen = beta_frozen = None
+        mix_learn = None
         if self.params.calibrate:
+            learn_out = [] if self.params.mix_model == "delayed" else None
             r_hat, card, level, cal = calibration_masks_step(X1, X2, cal, self.params, fs=fs,
-                                                             delay=self.delay_samples(fs))
+                                                             delay=self.delay_samples(fs), learn_out=learn_out)
             X2 = X2 / r_hat
+            if learn_out is not None:  # the calibration's weights of the frames it averaged now (D behind)
+                mix_learn = tuple(np.concatenate([pair[i] for pair in learn_out]) for i in range(2))
             # the DAS mix learns only where the calibration does too (no talker); with the calibration's
             # level rule on (the talker-blind mode of issue 16) beta freezes on the masks beam_freeze names
             mode = self.params.beam_freeze
@@ -140,7 +146,8 @@ class RobustElkoBeamformer(SubbandBase):
             if not self.params.talker_blind:
                 beta_frozen = None
             record.update(r_hat=r_hat, frozen=mix_frozen)
-        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, beta_frozen=beta_frozen)
+        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, beta_frozen=beta_frozen,
+                                      mix_learn=mix_learn)
         record.update(beam)
         return Y[None], (cal, sub), record
 

@@ -131,6 +131,8 @@ class SubbandState:
     p_m: np.ndarray | None = None  # (K,) das_mix: average of P_1 over the same (unfrozen) frames
     cos_theta: np.ndarray | None = None  # (B,) beta_model="direction": cos of each band's rear direction
     mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
+    mix_pend: tuple | None = None  # mix_model="delayed": the last frames' (Y, D, p1), (D, K) each, not yet judged
+    mix_fast: tuple | None = None  # mix_fast_cells: the start-up weight's averages (as alpha, p_d, p_m, mix_n)
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -178,7 +180,9 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     betas : (F, K), the beta applied to each frame; new state.
     """
     F = cF.shape[0]
-    if F == 0:
+    if F == 0:  # a block shorter than a hop: nothing to adapt
+        if extras is not None:
+            extras.update(frozen=None, p1=np.zeros(cF.shape))
         return np.zeros(cF.shape), state
     bb = cB.real**2 + cB.imag**2
     pb = smooth_frames(bb, lam, state.p_b)
@@ -285,6 +289,8 @@ class SubbandEbParams(StftParams):
     beta_norm: str = "frame"
     mix_bands_hz: tuple | None = None
     mix_ramp_cells: float = 0.0
+    mix_model: str = "weights"
+    mix_fast_cells: float = 0.0
     eq_bound_beta: float | None = None
 
     def _check_subband(self):
@@ -330,6 +336,12 @@ class SubbandEbParams(StftParams):
                     or list(edges) != sorted(set(edges)):
                 raise ParameterError(name, edges, "a tuple of increasing band edges in Hz (> 0)")
         check_range("mix_ramp_cells", self.mix_ramp_cells, 0.0, 1e9)
+        check_choice("mix_model", self.mix_model, ("weights", "delayed"))
+        check_range("mix_fast_cells", self.mix_fast_cells, 0.0, 1e9)
+        if self.mix_model == "delayed" and not (getattr(self, "calibrate", False) and self.mix_bands_hz is not None):
+            raise ParameterError("mix_model", self.mix_model, "'weights' unless eb-robust calibrates (calibrate=True) "
+                                 "and mix_bands_hz is set: the delayed weight learns per band where the "
+                                 "calibration does")
 
 
 class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
@@ -403,9 +415,12 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         values.update(cos_theta=c, p_b=den, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
         return betas, SubbandState(**values), frozen, p1
 
-    def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int):
-        """``(alphas (F, K), new state)``: the DAS mix weight per bin or (``mix_bands_hz``) per band."""
+    def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int, mix_learn=None):
+        """``(alphas (F, K), new state)``: the DAS mix weight per bin or (``mix_bands_hz``) per band, or
+        (``mix_model="delayed"``) learned with the caller's weights ``mix_learn``, which lag the block."""
         p = self.params
+        if p.mix_model == "delayed":
+            return self._delayed_mix(Y, D, p1, sub, fs, mix_learn)
         if p.mix_bands_hz is None:
             alphas, a, pd, pm = das_mix_step(Y, D, p1, frozen, sub, lam=float(p.mix_lam), eps=float(p.eps),
                                              smooth_bins=int(p.mix_smooth_bins), alpha0=float(p.mix_alpha0))
@@ -421,11 +436,47 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         values.update(changes)
         return alphas, SubbandState(**values)
 
-    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None):
+    def _delayed_mix(self, Y, D, p1, sub: SubbandState, fs: int, learn):
+        """``mix_model="delayed"``: the pooled weight (:func:`enhancers.beam_pool.pooled_mix_step`) learned from
+        the frames the caller's held weights judge, which lag the block by ``D`` frames (the calibration's
+        look ahead): the block's products wait ``D`` frames in ``sub.mix_pend``, so a frame is learned only
+        once the talker's onset ``D`` frames after it is known.  The weight of a frame uses the frames
+        learned before it (``D`` frames older: a slowly varying weight loses nothing).  ``learn = (held (F,
+        K), now (F, K))``: the weights of the frames reached now and of the block's own frames, on which the
+        start-up weight learns at once (``mix_fast_cells``)."""
+        p = self.params
+        if learn is None:
+            raise ParameterError("mix_model", p.mix_model, "'weights' (the delayed weight learns on eb-robust's "
+                                 "calibration)")
+        F, K = Y.shape
+        n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.talker_blind else 0
+        # at the stream start the calibration judges n_ahead empty placeholder frames first (weight 0)
+        pend = sub.mix_pend if sub.mix_pend is not None else (
+            np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K)))
+        ys, ds, ps = (np.concatenate([a, b]) for a, b in zip(pend, (Y, D, p1)))
+        onehot = band_onehot(bin_omega(int(p.frame_len)) / (2 * np.pi) * fs, p.mix_bands_hz)
+        held, now = learn
+        zeros = [np.zeros(onehot.shape[1])] * 4
+        st = zeros if sub.mix_n is None else [sub.alpha, sub.p_d, sub.p_m, sub.mix_n]
+        n_before = st[3] + np.cumsum(held @ onehot, axis=0) - held @ onehot  # (F, B): cells learned before each frame
+        kw = dict(onehot=onehot, lam=float(p.mix_lam), eps=float(p.eps), alpha0=float(p.mix_alpha0))
+        alphas, *st = pooled_mix_step(ys[:F], ds[:F], ps[:F], held, *st, ramp_cells=float(p.mix_ramp_cells), **kw)
+        values = dict(vars(sub))
+        if p.mix_fast_cells > 0:  # the start: the weight learned at once stands in until the delayed one has cells
+            fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
+            quick, *fast = pooled_mix_step(Y, D, p1, now, *fast, **kw)
+            band = onehot.argmax(axis=1)
+            alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
+            values["mix_fast"] = tuple(fast)
+        values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]))
+        return alphas, SubbandState(**values)
+
+    def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None, mix_learn=None):
         """``(Y (F, K), record, new state)`` for the frames of one block.
 
         ``mix_frozen`` (F, K): bins where the DAS mix weight must not learn either (OR-ed with the gate);
-        ``beta_frozen`` (F, K): the same for beta.
+        ``beta_frozen`` (F, K): the same for beta; ``mix_learn``: ``mix_model="delayed"``'s pair of weights
+        from eb-robust's calibration (see :meth:`_delayed_mix`).
         """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
@@ -437,7 +488,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             D = Y - self._das(X1, X2, G, fs)
             if mix_frozen is not None:
                 frozen = mix_frozen if frozen is None else (frozen | mix_frozen)
-            alphas, sub = self._mix(Y, D, p1, frozen, sub, fs)
+            alphas, sub = self._mix(Y, D, p1, frozen, sub, fs, mix_learn=mix_learn)
             Y = Y - alphas * D
             record["alpha"] = alphas
         return Y, record, sub
@@ -478,6 +529,12 @@ class SubbandElkoBeamformer(SubbandBase):
     mix_bands_hz, mix_ramp_cells : the DAS mix weight per band (edges in Hz, ``()``: one band; default
         None: per bin) from the band's unfrozen cells only, shrunk towards ``mix_alpha0`` until it has
         learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam_pool.pooled_mix_step`.
+    mix_model, mix_fast_cells : ``"weights"`` (default: the weight learns at once, where its masks leave a
+        cell open) or ``"delayed"`` (``eb-robust`` only, with ``mix_bands_hz``: learned ``level_ahead_s``
+        late, with the calibration's weights -- the talker's onset is known before a frame is learned);
+        with ``mix_fast_cells > 0`` the weight learned at once -- on the frames before the frame rule first
+        hears the talker -- stands in for the delayed one until it has that many cells of a band (a stream
+        starts on the noise; the delayed weight has nothing for its first ``level_ahead_s``).
 
     Examples
     --------

@@ -73,7 +73,7 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
     from benchmarks.perf.calibration_jitter import COMBINED, COMBINED_SS, mode_params
 
     def args(**kw):
-        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False)
+        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
@@ -84,6 +84,36 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
     make("eb-robust", **COMBINED)  # every field exists and is valid
     make("ss", **COMBINED_SS)
+
+
+def test_frame_settings_are_combined_with_the_frame_rule():
+    """``--frame`` / ``--frame-lowsnr``: :data:`FRAME` (:data:`COMBINED` with the frame rule and the delayed DAS
+    weight) or :data:`FRAME_LOWSNR` for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
+    winning; both valid ``eb-robust`` parameter sets."""
+    import argparse
+
+    from benchmarks.perf.calibration_jitter import (
+        COMBINED,
+        COMBINED_SS,
+        FRAME,
+        FRAME_LOWSNR,
+        mode_params,
+    )
+    from enhancers.registry import make
+
+    def args(**kw):
+        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False)
+        return argparse.Namespace(**{**base, **kw})
+
+    over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
+    assert over == {**FRAME, "frame_q_db": 4} and ss == COMBINED_SS
+    assert FRAME["frame_q_db"] == 5.0 and FRAME["mix_model"] == "delayed" and FRAME["freeze_level_db"] is None
+    assert {k: v for k, v in FRAME.items() if k in COMBINED and k not in ("freeze_level_db", "level_hang_s",
+                                                                             "level_ahead_s", "beam_freeze")} == \
+        {k: v for k, v in COMBINED.items() if k not in ("freeze_level_db", "level_hang_s", "level_ahead_s", "beam_freeze")}
+    assert mode_params(args(frame_lowsnr=True))[0] == FRAME_LOWSNR
+    for params in (FRAME, FRAME_LOWSNR):
+        make("eb-robust", **params)
 
 
 @pytest.mark.parametrize("argv, needle", [(["--set", "beta_model=bin"], "--set 'beta_model=bin'"),

@@ -1,7 +1,8 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind | --direction] [--pooled | --combined] [--set KEY=JSON ...] [--save-baseline FILE] [--baseline FILE]
+        [--noises babble ...] [--blind | --direction] [--pooled | --combined | --frame | --frame-lowsnr] [--set KEY=JSON ...]
+        [--save-baseline FILE] [--baseline FILE]
         [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
 
 ``--ss KEY=JSON ...``: parameters of ``eb-robust-ss``'s ``ss`` stage (and of ``ss`` itself when it is one of
@@ -22,6 +23,8 @@ forward/backward cardioid ratio of the calibrated pair per bin, no level rule) i
 
 ``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam_pool`).
 ``--combined``: every talker-blind piece together (:data:`COMBINED`, :data:`COMBINED_SS`; measured there).
+``--frame``: :data:`COMBINED` with the frame rule and the delayed DAS weight (:data:`FRAME`);
+``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`).
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -118,6 +121,19 @@ COMBINED = {**POOLED, "mix_ramp_cells": 0.0, "model": "hp1", "eq_bound_beta": 0.
             "ramp_frames": 40.0, "ramp_over_band": True, "freeze_level_db": 3.0, "level_scope": "bin",
             "level_hang_s": 0.3, "level_ahead_s": 0.15, "beam_freeze": "cardioid"}
 COMBINED_SS = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
+
+# the frame rule (issue 16, fifth round; enhancers/mic_calibration.py): COMBINED with the level rule and the
+# cardioid rules replaced by ONE level-free decision per frame -- the forward/backward cardioid ratio over
+# 1-4 kHz above 5 dB, held 0.2 s after and 0.24 s before -- and the DAS weight learned on it, 0.24 s late
+# (mix_model="delayed"); measured in the module docstring of enhancers/mic_calibration.py
+FRAME = {**COMBINED, "freeze_level_db": None, "frame_q_db": 5.0, "level_hang_s": 0.2, "level_ahead_s": 0.24,
+         "beam_freeze": "das", "mix_model": "delayed"}
+# the same, giving SNR-I back: below ~6 dB estimated input SNR the calibration and the DAS weight learn on the
+# cardioid rules' cells again (frame_snr_db: the noise masks the talker there); the DAS weight learned at once on
+# the frames before the talker is first heard stands in for the delayed one until that has 2000 cells of a band;
+# beta per bin (the deeper null of one plane wave), frozen where the frame rule hears the talker at high SNR
+FRAME_LOWSNR = {**FRAME, "frame_snr_db": (6.0, 12.0), "mix_fast_cells": 2000.0, "beta_model": "bin", "mu": 0.1,
+                "beta_norm": "frame", "beam_freeze": "level"}
 
 
 def _params(blind, overrides=None) -> dict:
@@ -331,9 +347,10 @@ def mode_params(args) -> tuple[dict, dict]:
     """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
     (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
     overrides, ss = parse_set(args.set), _key_json(args.ss, "--ss")
+    frame = FRAME_LOWSNR if args.frame_lowsnr else FRAME if args.frame else {}
     named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
-             **(COMBINED if args.combined else {})}
-    return {**named, **overrides}, {**(COMBINED_SS if args.combined else {}), **ss}
+             **(COMBINED if args.combined else {}), **frame}
+    return {**named, **overrides}, {**(COMBINED_SS if args.combined or frame else {}), **ss}
 
 
 def main(argv=None) -> int:
@@ -347,6 +364,9 @@ def main(argv=None) -> int:
     ap.add_argument("--pooled", action="store_true", help="pooled beta and DAS weight (POOLED), beside either mode")
     ap.add_argument("--combined", action="store_true",
                     help="every talker-blind piece together (COMBINED, and COMBINED_SS for the ss stage)")
+    ap.add_argument("--frame", action="store_true", help="COMBINED with the frame rule and the delayed DAS weight (FRAME)")
+    ap.add_argument("--frame-lowsnr", action="store_true",
+                    help="FRAME learning during speech at low input SNR, with a fast start and beta per bin (FRAME_LOWSNR)")
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
