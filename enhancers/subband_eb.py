@@ -458,11 +458,12 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         held, now = learn
         zeros = [np.zeros(onehot.shape[1])] * 4
         st = zeros if sub.mix_n is None else [sub.alpha, sub.p_d, sub.p_m, sub.mix_n]
-        n_before = st[3] + np.cumsum(held @ onehot, axis=0) - held @ onehot  # (F, B): cells learned before each frame
         kw = dict(onehot=onehot, lam=float(p.mix_lam), eps=float(p.eps), alpha0=float(p.mix_alpha0))
         alphas, *st = pooled_mix_step(ys[:F], ds[:F], ps[:F], held, *st, ramp_cells=float(p.mix_ramp_cells), **kw)
         values = dict(vars(sub))
         if p.mix_fast_cells > 0:  # the start: the weight learned at once stands in until the delayed one has cells
+            cells = held @ onehot  # (F, B); n_before: the cells the delayed weight learned before each frame
+            n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
             quick, *fast = pooled_mix_step(Y, D, p1, now, *fast, **kw)
             band = onehot.argmax(axis=1)

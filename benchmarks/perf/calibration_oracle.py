@@ -71,11 +71,11 @@ FRAME_BAND_HZ = (125.0, 4000.0)
 
 
 def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db: float, *,
-                frame: bool = False) -> np.ndarray:
+                frame: bool = False, fs: int = 16000) -> np.ndarray:
     """``(F, K)`` bool, True where a cell must NOT be learned: talker-to-noise power over the mics at or
     above ``threshold_db`` (``speech``, ``noise``: ``(2, n)`` images; ``filterbank``: the enhancer's);
     ``frame``: per frame, the powers summed over :data:`FRAME_BAND_HZ`, every bin of the frame alike (the
-    decision the frame rule of :mod:`enhancers.mic_calibration` makes blind).
+    decision the frame rule of :mod:`enhancers.mic_calibration` makes blind; ``fs``: the sample rate, Hz).
 
     >>> import numpy as np
     >>> from enhancers.filterbank import FilterBank
@@ -95,7 +95,7 @@ def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db:
     ps = (S.real**2 + S.imag**2).sum(axis=0)
     pn = (N.real**2 + N.imag**2).sum(axis=0)
     if frame:
-        f = np.arange(ps.shape[1]) * 16000.0 / (2 * (ps.shape[1] - 1))  # the sweeps' 16 kHz
+        f = np.arange(ps.shape[1]) * fs / (2 * (ps.shape[1] - 1))
         band = (f >= FRAME_BAND_HZ[0]) & (f <= FRAME_BAND_HZ[1])
         ps, pn = (np.broadcast_to(p[:, band].sum(axis=1, keepdims=True), p.shape) for p in (ps, pn))
     return ps >= pn * 10.0 ** (threshold_db / 10.0)
@@ -135,7 +135,7 @@ def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params
         if cond.seed >= seeds or (snrs and cond.snr_db not in snrs):
             continue
         parts = cj.render_parts(cond, data_dir)
-        mask = oracle_mask(parts[0], parts[1], fb, threshold_db, frame=frame)
+        mask = oracle_mask(parts[0], parts[1], fb, threshold_db, frame=frame, fs=cond.fs)
         with oracle_learning(mask, calibration_only=scope == "calibration"):
             new = cj.measure_condition(cond, data_dir, overrides=params, parts=parts, ss=ss)
         rows += [{**r, "learned": float(1.0 - mask.mean())} for r in new]
@@ -153,7 +153,7 @@ def mismatch_losses(seed: int, threshold_db: float, params: dict, scope: str = "
         for gain_db, phase_deg in ((0.0, 0.0), (1.0, 5.0)):
             s, v = (rb.rear_mismatch(c, gain_db=gain_db, phase_deg=phase_deg) for c in (s0, v0))
             e = enhancers.make("eb-robust", **params)
-            with oracle_learning(oracle_mask(s, v, e.filterbank, threshold_db, frame=frame),
+            with oracle_learning(oracle_mask(s, v, e.filterbank, threshold_db, frame=frame, fs=rb.FS),
                                  calibration_only=scope == "calibration"):
                 res.append(rb.replay_snr_i(e, s, v, start))
         out[kind] = (res[0], res[1])
