@@ -250,7 +250,11 @@ weight's start-up stand-in (``mix_fast_cells=2000``), beta per bin frozen where 
 (``beam_freeze="level"``) -- and lets some of the talker back in (``--frame-lowsnr``, same runs): shared data
 worst -22.9 dB, median -33.2, 15 of 60 rows above -30, agreement 99 %, SNR-I babble +0.3, factory +0.4, hall
 +1.2, wind -0.3 dB, mismatch loss 7.0 / 1.8 / 0.2 dB; built-in worst -22.7, median -39.1, 9 of 60, agreement
-100 %, SNR-I babble -0.4, factory -1.3, hall +1.5, wind -0.6 dB.  Neither meets every target of issue 16.
+100 %, SNR-I babble -0.4, factory -1.3, hall +1.5, wind -0.6 dB.  Between them, ``--frame --set
+mix_fast_cells=2000 frame_snr_db='[6, 12]'`` (beta pooled, on its own gate): shared worst -24.7, median -35.9,
+2 of 60 rows above -30, agreement 100 %, SNR-I +0.2 / -1.6 / +1.0 / -0.3 dB, mismatch loss 11.0 / 4.1 / 0.3
+dB; built-in worst -22.4, 4 of 60, SNR-I -0.5 / -2.9 / +1.4 / -0.6 dB (``(9, 15)``: the same within 0.1 dB
+of SNR-I).  Neither setting meets every target of issue 16.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
