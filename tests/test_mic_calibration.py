@@ -625,7 +625,7 @@ def _frame_weights_of(x, **params):
 
 def test_frame_rule_is_blind_to_level_swings_and_sees_the_talker():
     """Closed form: a diffuse field's forward/backward cardioid power ratio is 0 dB at any level, so noise that
-    jumps 15 dB up for 1.5 s and down again leaves every frame learned (weight 1; measured max ratio 1.0 dB
+    jumps 15 dB up for 1.5 s and down again leaves every frame learned (weight 1; measured max ratio 0.75 dB
     over 48 bins, the threshold is 5 dB); a talker at 45 deg 10 dB above the noise (ratio ~ 10 log10((1 + 2.19
     rho) / (1 + 0.064 rho)) = 11 dB for an ideal cardioid pair) gets weight 0 in all its frames and in the
     0.2 s hold after / 0.24 s look ahead before them, and nowhere else.  Real mismatch (1 dB / 5 deg) on both."""

@@ -313,15 +313,15 @@ def test_delayed_das_weight_ignores_the_talker(mix_model, same):
 
 def test_delayed_das_weight_closed_forms(white, rng):
     """The delayed weight keeps the least-squares closed forms: spatially white noise, alpha -> 1 in the band
-    1-4 kHz where the differential path is noisier than the DAS (measured >= 0.95 after 3 s); white noise from
-    135 deg, alpha -> 0 (the null wins; measured <= 0.05) in the bands 0-1 and 1-4 kHz.  Tolerance 0.1 (the
-    one-pole's estimation spread over ~350 learned frames)."""
+    1-4 kHz where the differential path is noisier than the DAS (measured >= 0.984 after 3 s; tolerance 0.1,
+    the one-pole's estimation spread over ~350 learned frames); white noise from 135 deg, alpha -> 0 (the
+    null wins, and the weight is clipped at 0: measured 0.0) in the bands 0-1 and 1-4 kHz."""
     a = make("eb-robust", **FRAME_DELAYED).process(white[:, :6 * FS], FS).trace["alpha"][3 * FS // 128:]
     f = np.arange(129) * FS / NFFT
     assert a[:, (f >= 1000) & (f < 4000)].min() >= 0.9
     x = plane_wave_pair(rng.standard_normal(6 * FS), az_deg=135)
     a = make("eb-robust", **FRAME_DELAYED).process(x, FS).trace["alpha"][3 * FS // 128:]
-    assert a[:, (f >= 100) & (f < 4000)].max() <= 0.1
+    assert a[:, (f >= 100) & (f < 4000)].max() <= 0.01
 
 
 def test_delayed_das_weight_streams_as_one_pass():
@@ -359,14 +359,14 @@ def test_delayed_das_weight_parameters_are_checked(name, bad):
 def test_fast_start_stands_in_for_the_delayed_weight(rng):
     """``mix_fast_cells``: a rear plane wave from the first sample (a machine already running): the delayed weight
     has nothing to learn from before 0.24 s and holds its prior 1 (the DAS), the weight learned at once already
-    favours the null (closed form alpha* = 0; measured <= 0.1 from frame 10); once the delayed weight has the
+    favours the null (closed form alpha* = 0; measured <= 0.03 from frame 10); once the delayed weight has the
     cells it is the delayed weight exactly (oracle: the same accumulators, to 1e-12)."""
     x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=150)
     slow = make("eb-robust", **FRAME_DELAYED).process(x, FS).trace["alpha"]
     fast = make("eb-robust", **FRAME_DELAYED, mix_fast_cells=500.0).process(x, FS).trace["alpha"]
     f = np.arange(129) * FS / NFFT
     band = (f >= 100) & (f < 4000)
-    assert slow[10:25, band].min() == 1.0 and fast[10:25, band].max() <= 0.1
+    assert slow[10:25, band].min() == 1.0 and fast[10:25, band].max() <= 0.05
     late = int(1.5 * FS / 128)
     np.testing.assert_allclose(fast[late:], slow[late:], rtol=0, atol=1e-12)
 
