@@ -492,7 +492,7 @@ def _pending(state: CalibrationState, n_ahead: int):
 
 
 def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, n_ahead: int,
-                   changes: dict) -> np.ndarray:
+                   changes: dict) -> tuple:
     """``(held (F,), kappa (F,) or None, now (F,))``: the frame rule's weights of the frames averaged now (the
     first ``F`` of the ``D`` pending and the block's ``F``), each frame's :func:`_frame_rule` weight held --
     the minimum over the ``level_hang_s`` frames before it and the ``level_ahead_s`` (= ``D``) after it, so
@@ -897,8 +897,8 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         loud = loud | extra
     elif extra is not None:
         card_learn = card | extra
-    if p.frame_q_db is not None and p.frame_snr_db is None:  # the frame rule replaces the cardioid rules
-        card_learn = np.zeros_like(card_learn)  # (the stream start's placeholders stay frozen)
+    if p.frame_q_db is not None and p.frame_snr_db is None:  # the frame rule replaces the cardioid rules (with
+        card_learn = np.zeros_like(card_learn)  # frame_snr_db they stay, for low SNR); the start's placeholders stay frozen
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
     # the averages run level_ahead_s (D frames) behind the input, so the level rule can freeze
     # a frame for what comes after it too (a talker's onset rises over several frames)
@@ -908,7 +908,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     learn_frozen, level_now, changes["last_loud"] = _learning_mask(
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
     frame_w = kappa = None
-    if p.frame_q_db is not None:  # the frame rule replaces the cardioid rules; its weight is held like the level rule
+    if p.frame_q_db is not None:  # the frame rule's weights, held like the level rule; beta's mask gets its talker
         frame_w, kappa, frame_now = _frame_weights(X1, X2, state, p, fs=fs, delay=delay, n_ahead=n_ahead,
                                                    changes=changes)
         card = np.zeros_like(card)
