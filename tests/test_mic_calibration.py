@@ -662,7 +662,7 @@ def test_frame_rule_soft_weights_are_graded():
     soft = _frame_weights_of(x, frame_soft_db=2.0, level_hang_s=0.0, level_ahead_s=0.0)
     hard = _frame_weights_of(x, level_hang_s=0.0, level_ahead_s=0.0)
     assert set(np.unique(hard)) <= {0.0, 1.0}
-    assert ((soft > 0.05) & (soft < 0.95)).sum() >= 5
+    assert ((soft > 0.05) & (soft < 0.95)).sum() >= 30  # measured 45 frames
     assert soft[3:int(1.5 * FS / 128)].min() == 1.0 and soft[-10:].max() == 0.0 and hard[-10:].max() == 0.0
     assert np.all(soft <= hard)  # the soft rule's top is the hard threshold: it never weighs more
 

@@ -313,12 +313,12 @@ def test_delayed_das_weight_ignores_the_talker(mix_model, same):
 
 def test_delayed_das_weight_closed_forms(white, rng):
     """The delayed weight keeps the least-squares closed forms: spatially white noise, alpha -> 1 in the band
-    1-4 kHz where the differential path is noisier than the DAS (measured >= 0.984 after 3 s; tolerance 0.1,
-    the one-pole's estimation spread over ~350 learned frames); white noise from 135 deg, alpha -> 0 (the
+    1-4 kHz where the differential path is noisier than the DAS (measured >= 0.984 after 3 s; tolerance 0.05,
+    the one-pole's estimation spread over ~350 learned frames of 48 bins); white noise from 135 deg, alpha -> 0 (the
     null wins, and the weight is clipped at 0: measured 0.0) in the bands 0-1 and 1-4 kHz."""
     a = make("eb-robust", **FRAME_DELAYED).process(white[:, :6 * FS], FS).trace["alpha"][3 * FS // 128:]
     f = np.arange(129) * FS / NFFT
-    assert a[:, (f >= 1000) & (f < 4000)].min() >= 0.9
+    assert a[:, (f >= 1000) & (f < 4000)].min() >= 0.95
     x = plane_wave_pair(rng.standard_normal(6 * FS), az_deg=135)
     a = make("eb-robust", **FRAME_DELAYED).process(x, FS).trace["alpha"][3 * FS // 128:]
     assert a[:, (f >= 100) & (f < 4000)].max() <= 0.01
