@@ -493,12 +493,14 @@ def _pending(state: CalibrationState, n_ahead: int):
 
 def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, n_ahead: int,
                    changes: dict) -> tuple:
-    """``(held (F,), kappa (F,) or None, now (F,))``: the frame rule's weights of the frames averaged now (the
+    """``(held (F,), kappa (F,) or None, now (F,), talking (F,))``: the frame rule's weights of the frames averaged now (the
     first ``F`` of the ``D`` pending and the block's ``F``), each frame's :func:`_frame_rule` weight held --
     the minimum over the ``level_hang_s`` frames before it and the ``level_ahead_s`` (= ``D``) after it, so
     that a talker's onset and decay around a loud frame are not learned either; ``frame_snr_db``'s share
     of the rule (:func:`_frame_snr_share`); the block's own frames' weights, not held, until the first frame
-    the rule weighs below 1 since the stream start (0 from there on).  ``changes`` gets the new state."""
+    the rule weighs below 1 since the stream start (0 from there on); the block's frames where the rule
+    hears the talker or its hold after it, at the share's upper half (beta's mask, no look ahead).
+    ``changes`` gets the new state."""
     w, changes["q_frame"], talker, power = _frame_rule(X1, X2, state, p, fs=fs, delay=delay)
     n_hang = int(round(float(p.level_hang_s) * fs / int(p.hop)))
     tail = state.w_tail if state.w_tail is not None else np.ones(n_hang + n_ahead)  # the stream start: no hold
@@ -508,17 +510,15 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     # the block's frames the rule heard the talker in or in the hold after (no look ahead: for beta, which
     # cannot wait; beam_freeze="level")
     talking = np.lib.stride_tricks.sliding_window_view(seq[n_ahead:], n_hang + 1).min(axis=1)[:len(w)] < 1.0
-    changes["talking"] = talking
     # the block's own frames until the talker is first heard (a stream starts on the noise: what the DAS weight
     # may learn at once, mix_fast_cells); nothing after
     quiet = ~np.logical_or.accumulate(w < 1.0) & (not state.heard)
     changes["heard"] = bool(state.heard or (w < 1.0).any())
     now = w * quiet
     if p.frame_snr_db is None:
-        return held, None, now
+        return held, None, now, talking
     kappa, changes["snr"] = _frame_snr_share(talker, power, state.snr, p, fs=fs)
-    changes["talking"] = talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
-    return held, kappa, now
+    return held, kappa, now, talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
 
 
 #: time constant (s) of the frame rule's input-SNR estimate (frame_snr_db): a few utterances
@@ -909,10 +909,10 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
     frame_w = kappa = None
     if p.frame_q_db is not None:  # the frame rule's weights, held like the level rule; beta's mask gets its talker
-        frame_w, kappa, frame_now = _frame_weights(X1, X2, state, p, fs=fs, delay=delay, n_ahead=n_ahead,
-                                                   changes=changes)
+        frame_w, kappa, frame_now, talking = _frame_weights(X1, X2, state, p, fs=fs, delay=delay, n_ahead=n_ahead,
+                                                            changes=changes)
         card = np.zeros_like(card)
-        level_now = level_now | changes.pop("talking")[:, None]
+        level_now = level_now | talking[:, None]
     rear_now = None
     if rear is not None:  # judged on the block's frames, which the averages reach n_ahead frames later
         pend_rear = state.pend_rear if state.pend_rear is not None else np.zeros((n_ahead, rear.shape[1]), dtype=bool)

@@ -444,10 +444,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         learned before it (``D`` frames older: a slowly varying weight loses nothing).  ``learn = (held (F,
         K), now (F, K))``: the weights of the frames reached now and of the block's own frames, on which the
         start-up weight learns at once (``mix_fast_cells``)."""
-        p = self.params
-        if learn is None:
-            raise ParameterError("mix_model", p.mix_model, "'weights' (the delayed weight learns on eb-robust's "
-                                 "calibration)")
+        p = self.params  # (the parameter check admits "delayed" only where eb-robust's calibration gives learn)
         F, K = Y.shape
         n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.talker_blind else 0
         # at the stream start the calibration judges n_ahead empty placeholder frames first (weight 0)

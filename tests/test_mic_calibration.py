@@ -756,8 +756,7 @@ def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
         state, nows = calibration_init(X.shape[2]), []
         for lo in range(0, X.shape[1], blocks):
             changes = {}
-            _, _, now = _frame_weights(X[0, lo:lo + blocks], X[1, lo:lo + blocks], state, changes=changes, **kw)
-            changes.pop("talking")
+            _, _, now, _ = _frame_weights(X[0, lo:lo + blocks], X[1, lo:lo + blocks], state, changes=changes, **kw)
             state = dataclasses.replace(state, **changes)
             nows.append(now)
         return np.concatenate(nows)

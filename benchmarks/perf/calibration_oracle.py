@@ -95,7 +95,7 @@ def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db:
     ps = (S.real**2 + S.imag**2).sum(axis=0)
     pn = (N.real**2 + N.imag**2).sum(axis=0)
     if frame:
-        f = np.arange(ps.shape[1]) * fs / (2 * (ps.shape[1] - 1))
+        f = np.fft.rfftfreq(2 * (ps.shape[1] - 1), 1.0 / fs)
         band = (f >= FRAME_BAND_HZ[0]) & (f <= FRAME_BAND_HZ[1])
         ps, pn = (np.broadcast_to(p[:, band].sum(axis=1, keepdims=True), p.shape) for p in (ps, pn))
     return ps >= pn * 10.0 ** (threshold_db / 10.0)
