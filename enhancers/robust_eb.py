@@ -132,7 +132,7 @@ class RobustElkoBeamformer(SubbandBase):
         mix_frozen = beta_frozen = None
         mix_learn = None
         if self.params.calibrate:
-            learn_out = [] if self.params.mix_model == "delayed" else None
+            learn_out = [] if "delayed" in (self.params.mix_model, self.params.beta_model) else None
             r_hat, card, level, cal = calibration_masks_step(X1, X2, cal, self.params, fs=fs,
                                                              delay=self.delay_samples(fs), learn_out=learn_out)
             X2 = X2 / r_hat

@@ -133,6 +133,10 @@ class SubbandState:
     mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
     mix_pend: tuple | None = None  # mix_model="delayed": the last frames' (Y, D, p1), (D, K) each, not yet judged
     mix_fast: tuple | None = None  # mix_fast_cells: the start-up weight's averages (as alpha, p_d, p_m, mix_n)
+    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open), (D, K) each
+    beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
+    beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
+    beta_frames: int = 0  # beta_model="delayed": frames seen since the stream start
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -292,6 +296,8 @@ class SubbandEbParams(StftParams):
     mix_model: str = "weights"
     mix_fast_cells: float = 0.0
     eq_bound_beta: float | None = None
+    beta_lam: float = 0.9
+    beta_fast_frames: float = 0.0
 
     def _check_subband(self):
         self._check_stft()
@@ -326,7 +332,13 @@ class SubbandEbParams(StftParams):
 
 
     def _check_pooling(self):
-        check_choice("beta_model", self.beta_model, ("bin", "direction"))
+        check_choice("beta_model", self.beta_model, ("bin", "direction", "delayed"))
+        check_range("beta_lam", self.beta_lam, 0.0, 1.0, hi_open=True)
+        check_range("beta_fast_frames", self.beta_fast_frames, 0.0, 1e9)
+        if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
+            raise ParameterError("beta_model", self.beta_model, "'bin' or 'direction' unless eb-robust calibrates "
+                                 "(calibrate=True) with a talker-blind rule: the delayed beta learns where the "
+                                 "calibration does")
         check_choice("beta_norm", self.beta_norm, ("frame", "learned"))
         for name in ("beta_bands_hz", "mix_bands_hz"):
             edges = getattr(self, name)
@@ -385,11 +397,14 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         look = np.abs(G) * np.abs(2.0 * np.sin(wt))
         return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
 
-    def _betas(self, cF, cB, X1, sub: SubbandState, fs: int, beta_frozen):
-        """``(betas (F, K), new state, frozen (F, K) or None, smoothed |X1|^2 (F, K))``: per bin or per band."""
+    def _betas(self, cF, cB, X1, sub: SubbandState, fs: int, beta_frozen, learn=None):
+        """``(betas (F, K), new state, frozen (F, K) or None, smoothed |X1|^2 (F, K))``: per bin or per band,
+        or (``beta_model="delayed"``) per bin, learned with the calibration's weights ``learn``."""
         p = self.params
         gate_db = None if p.adapt_gate_db is None else float(p.adapt_gate_db)
         gate_lam = float(p.lam) if p.gate_lam is None else float(p.gate_lam)
+        if p.beta_model == "delayed":
+            return self._delayed_betas(cF, cB, X1, sub, fs, learn, gate_db=gate_db, gate_lam=gate_lam)
         if p.beta_model == "bin":
             extras: dict = {}
             betas, sub = subband_beta_step(cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
@@ -413,6 +428,67 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             norm_lam=float(p.lam) if p.beta_norm == "learned" else None)
         values = dict(vars(sub))
         values.update(cos_theta=c, p_b=den, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
+        return betas, SubbandState(**values), frozen, p1
+
+    def _delayed_betas(self, cF, cB, X1, sub: SubbandState, fs: int, learn, *, gate_db, gate_lam):
+        """``beta_model="delayed"``: one least-squares beta per bin, ``clip(S_FB / S_BB, 0, 1)`` (``beta0`` before
+        any frame is learned; :func:`enhancers.beam_pool.pooled_mix_step` with one band per bin: the minimiser
+        of ``|cF - beta cB|^2`` over the frames learned, one-pole ``beta_lam`` per frame), learned ``D`` frames
+        late like ``mix_model="delayed"``: the block's cardioids wait in ``sub.beta_pend`` until the
+        calibration's held weights (``learn = (held, now)``) judge them, the talker's onset after them known.
+
+        Why least squares and not the NLMS of ``"bin"``: an NLMS updated with a ``D``-frame-old error is
+        stable only for a normalised step ``mu < ~pi / (4 D)`` (0.026 at ``D = 30``); a ratio of averages has
+        no feedback, so the delay costs only ``D`` frames of lag.  The own gate (``adapt_gate_db``), judged
+        on the block's frames, waits with them and multiplies the weights (the stream's first ~11 frames stay
+        out of it and are learned ungated).  ``beta_fast_frames > 0``: until a
+        bin has learned that many (weighted) frames, a beta learned at once on ``now`` -- the frames before
+        the frame rule first hears the talker -- stands in (a stream starts on the noise).
+        Returns as :meth:`_betas`."""
+        p = self.params
+        F, K = cF.shape
+        # the stream's first frames stay out of the gate: the filter bank's first frame holds part of a window
+        # of signal (not learned either), and the gate's smoother starts from zero powers, so for about
+        # 1 / (1 - gate_lam) frames its ratio is one frame's -- a single low one would set the floor for
+        # gate_floor_s (measured: a plane wave's first frames up to 10 dB below the rest, beta frozen for
+        # 1.2 s).  Those frames are learned ungated: the start matters (a machine already running).
+        n_part = max(0, int(p.frame_len) // int(p.hop) - 1 - sub.beta_frames)
+        n_start = int(p.frame_len) // int(p.hop) - 1 + int(round(1.0 / (1.0 - gate_lam)))
+        m = min(F, max(0, n_start - sub.beta_frames))
+        frozen, changes = None, {}
+        if F > m:  # (the gate needs frames)
+            frozen, changes = _learn_frozen(cF[m:], cB[m:], sub, gate_db=gate_db, gate_lam=gate_lam,
+                                            gate_window=self._gate_window(fs), also_frozen=None)
+        if gate_db is not None:
+            start = np.zeros((m, K), dtype=bool)
+            start[:n_part] = True
+            frozen = np.concatenate([start, frozen if frozen is not None else np.zeros((0, K), dtype=bool)])
+        p1 = smooth_frames(X1.real**2 + X1.imag**2, float(p.lam), sub.p_1) if F else np.zeros((0, K))
+        open_ = np.ones((F, K)) if frozen is None else (~frozen).astype(float)
+        n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop)))
+        # at the stream start the calibration judges n_ahead empty placeholder frames first (weight 0)
+        pend = sub.beta_pend if sub.beta_pend is not None else (
+            np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K)),
+            np.zeros((n_ahead, K)))
+        fs_, bs_, ps_, os_ = (np.concatenate([a, b]) for a, b in zip(pend, (cF, cB, p1, open_)))
+        held, now = learn
+        eye = np.eye(K)
+        zeros = [np.zeros(K)] * 4
+        # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
+        # re |X1|^2 would pull beta towards beta0 where the backward cardioid is weak (low frequencies)
+        kw = dict(onehot=eye, lam=float(p.beta_lam), eps=0.0, alpha0=float(p.beta0))
+        st = zeros if sub.beta_ls is None else list(sub.beta_ls)
+        learned = held * os_[:F]
+        betas, *st = pooled_mix_step(fs_[:F], bs_[:F], ps_[:F], learned, *st, **kw)
+        values = dict(vars(sub))
+        if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
+            n_before = (0.0 if sub.beta_ls is None else sub.beta_ls[3]) + np.cumsum(learned, axis=0) - learned
+            fast = zeros if sub.beta_fast is None else list(sub.beta_fast)
+            quick, *fast = pooled_mix_step(cF, cB, p1, now * open_, *fast, **kw)
+            betas = np.where(n_before >= float(p.beta_fast_frames), betas, quick)
+            values["beta_fast"] = tuple(fast)
+        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]), beta_frames=sub.beta_frames + F,
+                      p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
 
     def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int, mix_learn=None):
@@ -462,7 +538,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             cells = held @ onehot  # (F, B); n_before: the cells the delayed weight learned before each frame
             n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
-            quick, *fast = pooled_mix_step(Y, D, p1, now, *fast, **kw)
+            quick, *fast = pooled_mix_step(Y, D, p1, now, *fast, ramp_cells=float(p.mix_ramp_cells), **kw)
             band = onehot.argmax(axis=1)
             alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
             values["mix_fast"] = tuple(fast)
@@ -478,7 +554,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         """
         p = self.params
         cF, cB = self._cardioids(X1, X2, fs)
-        betas, sub, frozen, p1 = self._betas(cF, cB, X1, sub, fs, beta_frozen)
+        betas, sub, frozen, p1 = self._betas(cF, cB, X1, sub, fs, beta_frozen, learn=mix_learn)
         G = self._eq(betas, fs)
         Y = G * (cF - betas * cB)
         record = {"beta": betas, "eq": G}
