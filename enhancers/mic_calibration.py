@@ -327,6 +327,7 @@ class CalibrationState:
     q_frame: GateState | None = None  # the frame rule's smoothed band cardioid powers (frame_q_db), (1,)
     w_tail: np.ndarray | None = None  # (H + D,) the frame rule's weights of the frames before the block
     snr: np.ndarray | None = None  # (4,) frame_snr_db: band power of talker / other frames and their counts
+    q_frame_level: GateState | None = None  # frame_level_db: the frame's smoothed band power and its floor, (1,)
     heard: bool = False  # the frame rule has weighed a frame below 1 (the talker was heard) since the stream start
 
 
@@ -372,6 +373,8 @@ class CalibrationParams(StftParams):
     frame_band_hz: tuple[float, float] = (1000.0, 4000.0)
     frame_soft_db: float = 0.0
     frame_snr_db: tuple | None = None
+    frame_low_hz: float | None = None
+    frame_level_db: float | None = None
 
     @property
     def talker_blind(self) -> bool:
@@ -430,6 +433,10 @@ class CalibrationParams(StftParams):
             check_range("frame_q_db", self.frame_q_db, -60.0, 60.0)
         _check_band("frame_band_hz", self.frame_band_hz)
         check_range("frame_soft_db", self.frame_soft_db, 0.0, 60.0)
+        if self.frame_level_db is not None:
+            check_range("frame_level_db", self.frame_level_db, 0.0, 60.0, lo_open=True)
+        if self.frame_low_hz is not None:
+            check_range("frame_low_hz", self.frame_low_hz, 0.0, float(self.frame_band_hz[0]), hi_open=True)
         if self.frame_snr_db is not None:
             if not (isinstance(self.frame_snr_db, tuple) and len(self.frame_snr_db) == 2):
                 raise ParameterError("frame_snr_db", self.frame_snr_db, "a pair (lo_db, hi_db)")
@@ -502,6 +509,9 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     hears the talker or its hold after it, at the share's upper half (beta's mask, no look ahead).
     ``changes`` gets the new state."""
     w, changes["q_frame"], talker, power = _frame_rule(X1, X2, state, p, fs=fs, delay=delay)
+    if p.frame_level_db is not None:  # a frame far above the noise floor is not learned either
+        loud, changes["q_frame_level"] = _frame_level_rule(X1, X2, state, p, fs=fs)
+        w = np.where(loud, 0.0, w)
     n_hang = int(round(float(p.level_hang_s) * fs / int(p.hop)))
     tail = state.w_tail if state.w_tail is not None else np.ones(n_hang + n_ahead)  # the stream start: no hold
     seq = np.concatenate([tail, w])
@@ -660,20 +670,52 @@ def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     threshold): a frame near the threshold, where the talker x noise cross term decides on which side
     ``q`` falls, then weighs little in either run instead of all in one and nothing in the other.
     """
-    k = _band(p, fs, p.frame_band_hz)
-    ph = np.exp(-1j * bin_omega(int(p.frame_len))[k] * delay)
-    a, b = X1[:, k], X2[:, k]
-    cF, cB = a - ph * b, b - ph * a
-    pf = (cF.real**2 + cF.imag**2).sum(axis=1, keepdims=True)
-    pb = (cB.real**2 + cB.imag**2).sum(axis=1, keepdims=True)
-    gate = state.q_frame if state.q_frame is not None else gate_init(1)
+    bands = [_band(p, fs, p.frame_band_hz)]
+    if p.frame_low_hz is not None:  # the band below, judged on its own (a voiced syllable's energy lies there)
+        bands.append(_band(p, fs, (float(p.frame_low_hz), float(p.frame_band_hz[0]))))
+    ph = np.exp(-1j * bin_omega(int(p.frame_len)) * delay)
+    cF, cB = X1 - ph * X2, X2 - ph * X1
+    pf = np.stack([(cF[:, k].real**2 + cF[:, k].imag**2).sum(axis=1) for k in bands], axis=1)  # (F, bands)
+    pb = np.stack([(cB[:, k].real**2 + cB[:, k].imag**2).sum(axis=1) for k in bands], axis=1)
+    gate = state.q_frame if state.q_frame is not None else gate_init(len(bands))
     sf = smooth_frames(pf, float(p.gate_lam_cal), gate.pf)
     sb = smooth_frames(pb, float(p.gate_lam_cal), gate.pb)
-    q = 10.0 * np.log10((sf[:, 0] + TINY) / (sb[:, 0] + TINY))
+    q = 10.0 * np.log10((sf + TINY) / (sb + TINY)).max(axis=1)  # the talker's if any band says so
     top, width = float(p.frame_q_db), float(p.frame_soft_db)
     w = (q < top).astype(float) if width <= 0 else np.clip((top - q) / width, 0.0, 1.0)
     new = GateState(pf=sf[-1].copy(), pb=sb[-1].copy(), sf=gate.sf, sb=gate.sb) if len(q) else gate
+    a = X1[:, bands[0]]
     return w, new, q >= top, (a.real**2 + a.imag**2).sum(axis=1)
+
+def _frame_level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int):
+    """``frame_level_db``: ``(loud (F,), gate state)``, True where the frame's power over the frame rule's bands
+    (both mics, ``frame_low_hz`` or ``frame_band_hz``'s lower edge up to its upper edge), one-pole smoothed
+    (``gate_lam_cal``), is more than ``frame_level_db`` above its running minimum over ``level_floor_s``
+    (minimum statistics: the noise floor).
+
+    Why a level as well as the ratio: the phone's uncalibrated pair hardly tells the talker from a diffuse
+    field below 1 kHz (its ratio there is ~0-5 dB, measured on the ``phone`` preset), and a voiced syllable
+    can carry its power there: 25 dB above wind in 250 Hz-1 kHz while 2-3 dB in 1-4 kHz, where the ratio
+    never reaches the threshold.  A level rule cannot tell the talker from a swing of the noise, but a
+    false alarm only costs frames learned; the ratio still covers a talker at the noise's level.
+    The filter bank's first frames hold part of a window of signal, too quiet for a floor: they stay out of
+    it and are left to the ratio (counted loud, they would end the start-up weights' learning at once)."""
+    lo = float(p.frame_low_hz) if p.frame_low_hz is not None else float(p.frame_band_hz[0])
+    k = _band(p, fs, (lo, float(p.frame_band_hz[1])))
+    e = (X1[:, k].real**2 + X1[:, k].imag**2 + X2[:, k].real**2 + X2[:, k].imag**2).sum(axis=1, keepdims=True)
+    F = e.shape[0]
+    n_start = -(-int(p.frame_len) // int(p.hop)) - 1
+    m = min(F, max(0, n_start - state.n_frames))
+    gate = state.q_frame_level if state.q_frame_level is not None else gate_init(1)
+    if m == F:
+        return np.zeros(F, dtype=bool), gate
+    if state.n_frames + m <= n_start:  # the smoother starts at the first full frame's level, not at 0
+        gate = dataclasses.replace(gate, pf=e[m].copy())
+    n_window = max(1, int(math.ceil(float(p.level_floor_s) * fs / int(p.hop))))
+    loud, gate = power_ratio_gate(e[m:], np.ones_like(e[m:]), state=gate, gate_db=float(p.frame_level_db),
+                                  lam=float(p.gate_lam_cal), n_window=n_window, cap=math.inf)
+    return np.concatenate([np.zeros(m, dtype=bool), loud[:, 0]]), gate
+
 
 def _propagation_slope(s21: np.ndarray, band: slice, max_slope: float) -> np.ndarray:
     """Propagation phase slope (rad per bin) of ``s21 (F, K)`` over ``band``, ``(F,)``.

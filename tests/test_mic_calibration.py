@@ -765,3 +765,67 @@ def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
     t = np.arange(now.size) * 128 / FS
     assert now[t < 3.9].min() == 1.0 and now[t > 4.05].max() == 0.0
     np.testing.assert_array_equal(run(7), now)
+
+
+def _low_band_talker(rng, n):
+    """White diffuse noise, ``(2, n)``, and a talker at 45 deg with power only in 300-900 Hz (brick-wall), 10 dB
+    above the noise in that band, 2-2.5 s, ideal pair; and the burst's mask."""
+    noise = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
+    spec = np.fft.rfft(rng.standard_normal(n))
+    f = np.fft.rfftfreq(n, 1 / FS)
+    spec[(f < 300) | (f > 900)] = 0.0
+    on = (np.arange(n) >= 2 * FS) & (np.arange(n) < int(2.5 * FS))
+    talk = plane_wave_pair(np.fft.irfft(spec, n), az_deg=45) * on
+    talk *= np.sqrt(10 * np.mean(noise[0] ** 2) * 600 / 8000 / np.mean(talk[0, on] ** 2))
+    return noise, talk, on
+
+
+@pytest.mark.parametrize("low_hz, heard", [(None, False), (250.0, True)])
+def test_frame_rule_low_band_hears_a_low_talker(low_hz, heard):
+    """``frame_low_hz``: the band below ``frame_band_hz`` is judged on its own, and the frame is the talker's if
+    either band's ratio is over the threshold.  A talker with power only in 300-900 Hz, 10 dB over diffuse
+    noise there (closed form for an ideal pair: the cardioid ratio of a 45 deg plane wave is ~15 dB at low
+    frequencies, of a diffuse field 0 dB): with 250 Hz-1 kHz judged its frames (2.05-2.45 s) get weight 0;
+    1-4 kHz alone holds only the noise there and learns them all.  Frames away from the burst: 1 either way."""
+    noise, talk, _ = _low_band_talker(np.random.default_rng(8), 5 * FS)
+    extra = {} if low_hz is None else {"frame_low_hz": low_hz}
+    w = _frame_weights_of(noise + talk, level_hang_s=0.0, level_ahead_s=0.0, **extra)
+    t = np.arange(w.size) * 128 / FS
+    burst = (t > 2.05) & (t < 2.45)
+    assert w[burst].max() == (0.0 if heard else 1.0)
+    assert w[(t < 1.9) | (t > 2.6)][3:].min() == 1.0
+
+
+@pytest.mark.parametrize("step_db, loud", [(12.0, False), (28.0, True)])
+def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
+    """``frame_level_db = 20``: diffuse noise (cardioid ratio 0 dB, so the ratio rule learns every frame) that
+    steps up by 28 dB for 0.5 s is more than 20 dB over its running minimum (the noise floor): the frames of
+    the step (2.05-2.45 s) get weight 0; a 12 dB step stays under it (the floor's minimum-statistics bias, a few
+    dB, leaves > 5 dB of margin) and every frame is learned; before the step, after it, and at the stream start
+    (whose partial first frame stays out of the floor) every frame is learned."""
+    rng = np.random.default_rng(9)
+    n = 5 * FS
+    noise = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
+    on = (np.arange(n) >= 2 * FS) & (np.arange(n) < int(2.5 * FS))
+    w = _frame_weights_of(noise * np.where(on, 10 ** (step_db / 20), 1.0), frame_level_db=20.0,
+                          level_hang_s=0.0, level_ahead_s=0.0)
+    t = np.arange(w.size) * 128 / FS
+    step = (t > 2.05) & (t < 2.45)
+    assert w[step].max() == (0.0 if loud else 1.0)
+    assert w[(t < 1.95) | (t > 2.6)].min() == 1.0
+
+
+@pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0}])
+def test_frame_band_and_level_parameters_are_checked(bad):
+    from scenesim.errors import ParameterError
+
+    with pytest.raises(ParameterError):
+        make("mic-calibration", frame_q_db=5.0, **bad)
+
+
+def test_blocks_match_one_pass_with_the_frame_rules_low_band_and_level():
+    """Streaming (blocks of 1, 6, 43 and 200 samples) == one pass with ``frame_low_hz`` and ``frame_level_db`` (the
+    two bands' smoothers and the level's floor are carried).  Oracle: the same computation, to 1e-12."""
+    s, n = _talker_bursts(35)
+    _assert_blocks_match_one_pass(make("mic-calibration", **FRAME_RULE, frame_low_hz=250.0, frame_level_db=20.0),
+                                  s + n, [1, 6, 43, 200])
