@@ -73,7 +73,8 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
     from benchmarks.perf.calibration_jitter import COMBINED, COMBINED_SS, mode_params
 
     def args(**kw):
-        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False)
+        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
+                    frame_delayed=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
@@ -87,8 +88,9 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
 
 def test_frame_settings_are_combined_with_the_frame_rule():
-    """``--frame`` / ``--frame-lowsnr``: :data:`FRAME` (:data:`COMBINED` with the frame rule and the delayed DAS
-    weight) or :data:`FRAME_LOWSNR` for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
+    """``--frame`` / ``--frame-lowsnr`` / ``--frame-delayed``: :data:`FRAME` (:data:`COMBINED` with the frame rule
+    and the delayed DAS weight), :data:`FRAME_LOWSNR` or :data:`FRAME_DELAYED` (that with beta learned late: only
+    the beta, freeze and stand-in fields change, the rest is added) for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
     winning; both valid ``eb-robust`` parameter sets."""
     import argparse
 
@@ -96,13 +98,15 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         COMBINED,
         COMBINED_SS,
         FRAME,
+        FRAME_DELAYED,
         FRAME_LOWSNR,
         mode_params,
     )
     from enhancers.registry import make
 
     def args(**kw):
-        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False)
+        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
+                    frame_delayed=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
@@ -112,7 +116,13 @@ def test_frame_settings_are_combined_with_the_frame_rule():
                                                                              "level_ahead_s", "beam_freeze")} == \
         {k: v for k, v in COMBINED.items() if k not in ("freeze_level_db", "level_hang_s", "level_ahead_s", "beam_freeze")}
     assert mode_params(args(frame_lowsnr=True))[0] == FRAME_LOWSNR
-    for params in (FRAME, FRAME_LOWSNR):
+    over, ss = mode_params(args(frame_delayed=True))
+    assert over == FRAME_DELAYED and ss == COMBINED_SS
+    assert {k: v for k, v in FRAME_DELAYED.items() if k in FRAME_LOWSNR and k not in (
+        "beta_model", "beam_freeze", "mix_fast_cells", "mix_ramp_cells")} == {k: v for k, v in FRAME_LOWSNR.items()
+                                                                              if k not in ("beta_model", "beam_freeze",
+                                                                                           "mix_fast_cells", "mix_ramp_cells")}
+    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED):
         make("eb-robust", **params)
 
 

@@ -1,7 +1,7 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind | --direction] [--pooled | --combined | --frame | --frame-lowsnr] [--set KEY=JSON ...]
+        [--noises babble ...] [--blind | --direction] [--pooled | --combined | --frame | --frame-lowsnr | --frame-delayed] [--set KEY=JSON ...]
         [--save-baseline FILE] [--baseline FILE]
         [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
 
@@ -24,7 +24,8 @@ forward/backward cardioid ratio of the calibrated pair per bin, no level rule) i
 ``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam_pool`).
 ``--combined``: every talker-blind piece together (:data:`COMBINED`, :data:`COMBINED_SS`; measured there).
 ``--frame``: :data:`COMBINED` with the frame rule and the delayed DAS weight (:data:`FRAME`);
-``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`).
+``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`);
+``--frame-delayed``: that with beta learned late too (:data:`FRAME_DELAYED`).
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -134,6 +135,15 @@ FRAME = {**COMBINED, "freeze_level_db": None, "frame_q_db": 5.0, "level_hang_s":
 # beta per bin (the deeper null of one plane wave), frozen where the frame rule hears the talker at high SNR
 FRAME_LOWSNR = {**FRAME, "frame_snr_db": (6.0, 12.0), "mix_fast_cells": 2000.0, "beta_model": "bin", "mu": 0.1,
                 "beta_norm": "frame", "beam_freeze": "level"}
+# the same with beta learned late as well (issue 16, sixth round): one least-squares beta per bin on the
+# calibration's held weights, 0.24 s late (beta_model="delayed"; beta_fast_frames: a start-up stand-in for its
+# first 10 frames); the frame rule also judges 250 Hz-1 kHz on its own (frame_low_hz: a voiced syllable's power
+# lies there) and stops at a frame 20 dB over the noise floor (frame_level_db); the DAS weight's stand-in only
+# until 500 cells and shrunk towards its prior for its first 200 (mix_ramp_cells); the calibration learns
+# rear-dominated cells in a talker's frames too (cal_rear_db=10: issue 12's 135 deg mismatch)
+FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", "beta_fast_frames": 10.0,
+                 "mix_fast_cells": 500.0, "mix_ramp_cells": 200.0, "cal_rear_db": 10.0, "frame_low_hz": 250.0,
+                 "frame_level_db": 20.0}
 
 
 def _params(blind, overrides=None) -> dict:
@@ -347,7 +357,7 @@ def mode_params(args) -> tuple[dict, dict]:
     """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
     (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
     overrides, ss = parse_set(args.set), _key_json(args.ss, "--ss")
-    frame = FRAME_LOWSNR if args.frame_lowsnr else FRAME if args.frame else {}
+    frame = FRAME_DELAYED if args.frame_delayed else FRAME_LOWSNR if args.frame_lowsnr else FRAME if args.frame else {}
     named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
              **(COMBINED if args.combined else {}), **frame}
     return {**named, **overrides}, {**(COMBINED_SS if args.combined or frame else {}), **ss}
@@ -367,6 +377,8 @@ def main(argv=None) -> int:
     ap.add_argument("--frame", action="store_true", help="COMBINED with the frame rule and the delayed DAS weight (FRAME)")
     ap.add_argument("--frame-lowsnr", action="store_true",
                     help="FRAME learning during speech at low input SNR, with a fast start and beta per bin (FRAME_LOWSNR)")
+    ap.add_argument("--frame-delayed", action="store_true",
+                    help="FRAME_LOWSNR with beta learned late too, the low band and level rules (FRAME_DELAYED)")
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
