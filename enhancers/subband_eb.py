@@ -596,7 +596,11 @@ class SubbandElkoBeamformer(SubbandBase):
         its prior (default 0: the differential path); see :func:`das_mix_step`.
     beta_model, beta_bands_hz : ``"bin"`` (default: one NLMS beta per bin) or ``"direction"`` (opt-in,
         :mod:`enhancers.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
-        per frame) and that model's band edges in Hz (default ``()``: one band).
+        per frame) and that model's band edges in Hz (default ``()``: one band); or ``"delayed"``
+        (``eb-robust`` with a talker-blind rule only: one least-squares beta per bin learned ``level_ahead_s``
+        late on the calibration's held weights, see ``_delayed_betas``).
+    beta_lam, beta_fast_frames : ``"delayed"``'s average factor per learned frame (0.9) and its start-up
+        stand-in's length in learned frames per bin (0: none).
     beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
         cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
         :func:`enhancers.beam_pool.direction_beta_step`.
