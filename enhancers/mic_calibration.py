@@ -343,6 +343,7 @@ class CalibrationState:
     theta: np.ndarray | None = None  # (4,) model="hp1": the last fit (calibration_model), None: the prior
     q_frame: GateState | None = None  # the frame rule's smoothed band cardioid powers (frame_q_db), (1,)
     w_tail: np.ndarray | None = None  # (H + D,) the frame rule's weights of the frames before the block
+    p_tail: np.ndarray | None = None  # (D,) frame_snr_quiet: the band powers of the last D frames (NaN: none yet)
     snr: np.ndarray | None = None  # (4,) frame_snr_db: band power of talker / other frames and their counts
     q_frame_level: GateState | None = None  # frame_level_db: the frame's smoothed band power and its floor, (1,)
     heard: bool = False  # the frame rule has weighed a frame below 1 (the talker was heard) since the stream start
@@ -392,6 +393,7 @@ class CalibrationParams(StftParams):
     frame_snr_db: tuple | None = None
     frame_low_hz: float | None = None
     frame_level_db: float | None = None
+    frame_snr_quiet: bool = False
 
     @property
     def talker_blind(self) -> bool:
@@ -450,6 +452,8 @@ class CalibrationParams(StftParams):
             check_range("frame_q_db", self.frame_q_db, -60.0, 60.0)
         _check_band("frame_band_hz", self.frame_band_hz)
         check_range("frame_soft_db", self.frame_soft_db, 0.0, 60.0)
+        if not isinstance(self.frame_snr_quiet, bool):
+            raise ParameterError("frame_snr_quiet", self.frame_snr_quiet, "True or False")
         if self.frame_level_db is not None:
             check_range("frame_level_db", self.frame_level_db, 0.0, 60.0, lo_open=True)
         if self.frame_low_hz is not None:
@@ -544,7 +548,15 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     now = w * quiet
     if p.frame_snr_db is None:
         return held, None, now, talking
-    kappa, changes["snr"] = _frame_snr_share(talker, power, state.snr, p, fs=fs)
+    quiet_frames = quiet_power = None
+    if p.frame_snr_quiet:  # the noise's power from the held-quiet frames (D behind), not from every unheard one
+        tail_p = state.p_tail if state.p_tail is not None else np.full(n_ahead, np.nan)
+        seq_p = np.concatenate([tail_p, power])
+        changes["p_tail"] = seq_p[len(w):]
+        quiet_power = seq_p[:len(w)]
+        quiet_frames = (held >= 1.0) & ~np.isnan(quiet_power)  # NaN: the stream start's placeholders
+    kappa, changes["snr"] = _frame_snr_share(talker, power, state.snr, p, fs=fs, quiet=quiet_frames,
+                                             quiet_power=quiet_power)
     return held, kappa, now, talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
 
 
@@ -552,7 +564,7 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
 SNR_TAU_S = 3.0
 
 
-def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int):
+def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet=None, quiet_power=None):
     """``frame_snr_db = (lo, hi)``: the share ``kappa (F,)`` of the frame rule in the averages' weights, 0 where
     the stream's estimated input SNR is below ``lo`` dB, 1 above ``hi``, linear between; and the new state.
 
@@ -562,15 +574,25 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int):
     speech x noise cross terms that make an estimate learned during speech differ between ``s + n`` and
     ``s - n`` are masked by the noise at low input SNR (issue 16 asks for <= -30 dB of jitter from 15 dB
     up), while there the cells a talker leaves to the noise are most of a frame and worth most (a single
-    plane wave's null: 20-25 dB at 0 dB input).  Until both kinds of frame were seen: the frame rule."""
+    plane wave's null: 20-25 dB at 0 dB input).  Until both kinds of frame were seen: the frame rule.
+
+    ``quiet (F,)`` / ``quiet_power (F,)`` (``frame_snr_quiet``): the noise's average runs over these frames and
+    powers instead of the frames not marked -- the frames the held rule leaves quiet, ``D`` frames behind.
+    Why: a reverberant or quiet talker's frames the ratio misses count as noise otherwise, and pull the
+    estimate down towards the low-SNR share (measured on ``phone``'s factory-hall at 15 dB input)."""
     state = np.zeros(4) if snr is None else snr.copy()
     one_pole = 1.0 - math.exp(-int(p.hop) / (fs * SNR_TAU_S))
     lo, hi = (float(v) for v in p.frame_snr_db)
     kappa = np.ones(len(power))
-    for i, (is_talker, pw) in enumerate(zip(talker, power)):  # a few scalars per frame
-        j = 0 if is_talker else 2
-        state[j + 1] += 1.0
-        state[j] += max(1.0 / state[j + 1], one_pole) * (pw - state[j])
+    for i in range(len(power)):  # a few scalars per frame
+        updates = [(0, power[i])] if talker[i] else []
+        if quiet is None:
+            updates += [] if talker[i] else [(2, power[i])]
+        elif quiet[i]:
+            updates.append((2, quiet_power[i]))
+        for j, pw in updates:
+            state[j + 1] += 1.0
+            state[j] += max(1.0 / state[j + 1], one_pole) * (pw - state[j])
         if state[1] > 0 and state[3] > 0:
             snr_db = 10.0 * math.log10((state[0] + TINY) / (state[2] + TINY))
             kappa[i] = min(1.0, max(0.0, (snr_db - lo) / max(hi - lo, TINY)))
