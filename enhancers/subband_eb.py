@@ -137,6 +137,7 @@ class SubbandState:
     beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
     beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
     beta_frames: int = 0  # beta_model="delayed": frames seen since the stream start
+    mix_frames: int = 0  # mix_model="delayed": frames seen since the stream start
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -298,6 +299,7 @@ class SubbandEbParams(StftParams):
     eq_bound_beta: float | None = None
     beta_lam: float = 0.9
     beta_fast_frames: float = 0.0
+    fast_ahead_s: float = 0.0
 
     def _check_subband(self):
         self._check_stft()
@@ -335,6 +337,7 @@ class SubbandEbParams(StftParams):
         check_choice("beta_model", self.beta_model, ("bin", "direction", "delayed"))
         check_range("beta_lam", self.beta_lam, 0.0, 1.0, hi_open=True)
         check_range("beta_fast_frames", self.beta_fast_frames, 0.0, 1e9)
+        check_range("fast_ahead_s", self.fast_ahead_s, 0.0, float(getattr(self, "level_ahead_s", 0.0)))
         if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
             raise ParameterError("beta_model", self.beta_model, "'bin' or 'direction' unless eb-robust calibrates "
                                  "(calibrate=True) with a talker-blind rule: the delayed beta learns where the "
@@ -484,12 +487,26 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
             n_before = (0.0 if sub.beta_ls is None else sub.beta_ls[3]) + np.cumsum(learned, axis=0) - learned
             fast = zeros if sub.beta_fast is None else list(sub.beta_fast)
-            quick, *fast = pooled_mix_step(cF, cB, p1, now * open_, *fast, **kw)
+            (fq, bq, pq, oq), wq = self._lagged((fs_, bs_, ps_, os_), now, n_ahead, sub.beta_frames, fs)
+            quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
             betas = np.where(n_before >= float(p.beta_fast_frames), betas, quick)
             values["beta_fast"] = tuple(fast)
         values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]), beta_frames=sub.beta_frames + F,
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
+
+    def _lagged(self, seqs, now, n_ahead: int, seen: int, fs: int):
+        """The start-up stand-ins' frames: ``fast_ahead_s`` (``d`` frames) before the block's, from the pending
+        arrays ``seqs`` (``(n_ahead + F, K)`` each, the block's frames last), with the block's ``now`` weights as
+        theirs -- a frame is learned once the ``d`` frames after it were heard quiet too (``now`` is 0 from
+        the first frame the rule hears the talker in, so a talker's onset the rule hears up to ``d`` frames
+        late is not learned); rows before the stream start weigh 0.  ``d = 0``: the block's frames, at once.
+        Returns ``(arrays (F, K) each, weights (F, K))``."""
+        d = int(round(float(self.params.fast_ahead_s) * fs / int(self.params.hop)))
+        F = now.shape[0]
+        rows = [x[n_ahead - d:n_ahead - d + F] for x in seqs]
+        real = (seen + np.arange(F) - d) >= 0
+        return rows, now * real[:, None]
 
     def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int, mix_learn=None):
         """``(alphas (F, K), new state)``: the DAS mix weight per bin or (``mix_bands_hz``) per band, or
@@ -538,11 +555,13 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             cells = held @ onehot  # (F, B); n_before: the cells the delayed weight learned before each frame
             n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
-            quick, *fast = pooled_mix_step(Y, D, p1, now, *fast, ramp_cells=float(p.mix_ramp_cells), **kw)
+            (yq, dq, pq), wq = self._lagged((ys, ds, ps), now, n_ahead, sub.mix_frames, fs)
+            quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(p.mix_ramp_cells), **kw)
             band = onehot.argmax(axis=1)
             alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
             values["mix_fast"] = tuple(fast)
-        values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]))
+        values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]),
+                      mix_frames=sub.mix_frames + F)
         return alphas, SubbandState(**values)
 
     def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None, mix_learn=None):
@@ -601,6 +620,8 @@ class SubbandElkoBeamformer(SubbandBase):
         late on the calibration's held weights, see ``_delayed_betas``).
     beta_lam, beta_fast_frames : ``"delayed"``'s average factor per learned frame (0.9) and its start-up
         stand-in's length in learned frames per bin (0: none).
+    fast_ahead_s : the start-up stand-ins (``mix_fast_cells``, ``beta_fast_frames``) learn a frame only once
+        this much after it was heard quiet too (default 0: at once; at most ``level_ahead_s``).
     beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
         cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
         :func:`enhancers.beam_pool.direction_beta_step`.

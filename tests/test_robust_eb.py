@@ -492,11 +492,36 @@ def test_delayed_beta_streams_as_one_pass():
                                        ("eb-robust", {**FRAME_BETA, "calibrate": False}),
                                        ("eb-subband", {"beta_model": "delayed"}),
                                        ("eb-robust", {**FRAME_BETA, "beta_lam": 1.0}),
-                                       ("eb-robust", {**FRAME_BETA, "beta_fast_frames": -1.0})])
+                                       ("eb-robust", {**FRAME_BETA, "beta_fast_frames": -1.0}),
+                                       ("eb-robust", {**FRAME_BETA, "fast_ahead_s": 0.5})])
 def test_delayed_beta_parameters_are_checked(name, bad):
     """The delayed beta learns where eb-robust's talker-blind calibration does: without it (or with a bad
-    average factor or stand-in length) it is a one-line parameter error."""
+    average factor, stand-in length, or a stand-in look ahead beyond the calibration's) it is a one-line
+    parameter error."""
     from scenesim.errors import ParameterError
 
     with pytest.raises(ParameterError):
         make(name, **bad)
+
+
+def test_fast_ahead_delays_the_stand_in_by_its_look_ahead(rng):
+    """``fast_ahead_s``: the DAS weight's start-up stand-in learns each frame ``d`` frames late, and only if the
+    rule has not heard the talker by then, so a talker's onset heard up to ``d`` frames late is not learned.
+    Oracle (the same accumulators fed the same frames ``d`` frames later): a rear plane wave from the start and
+    a talker at 1 s -- with ``d = round(0.1 s / 8 ms) = 12`` the stand-in at frame ``i`` is the at-once one at
+    ``i - 12`` (to 1e-12) until the rule first hears the talker, and from there it holds the at-once value of
+    12 frames before that frame, the frames in between never learned."""
+    n = 2 * FS
+    on = (np.arange(n) >= FS) & (np.arange(n) < int(1.5 * FS))
+    from signals import harmonic_speechlike
+
+    talk = plane_wave_pair(harmonic_speechlike(n, pause_s=0.5), az_deg=45) * on
+    x = plane_wave_pair(rng.standard_normal(n), az_deg=150) + talk * 10.0
+    base = {**FRAME_DELAYED, "mix_fast_cells": 1e9}  # the stand-in throughout
+    now = make("eb-robust", **base).process(x, FS).trace["alpha"]
+    late = make("eb-robust", **base, fast_ahead_s=0.1).process(x, FS).trace["alpha"]
+    moves = np.nonzero(np.abs(np.diff(now, axis=0)).max(axis=1) > 0)[0]
+    h = int(moves.max()) + 1  # the at-once stand-in's last change: the rule has heard the talker
+    assert 125 <= h <= 145  # the talker's onset at 1 s = frame 125, its syllable rising over ~0.1 s (measured 138)
+    np.testing.assert_allclose(late[12:h], now[:h - 12], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(late[h:], np.broadcast_to(now[h - 12], late[h:].shape), rtol=0, atol=1e-12)
