@@ -271,7 +271,12 @@ below (``--frame-delayed``, 5 seeds, every noise and SNR, 2 December 2026, load 
 the DAS weight's start-up stand-in learning an onset before the rule hears it, and the rear rule and the
 low-SNR share learning the calibration in a reverberant hall), agreement 98 %, SNR-I babble +0.0, factory
 -0.5, hall +1.4, wind +0.4 dB, mismatch loss 0.7 / 2.8 / 0.2 dB; built-in worst -25.0, median -40.5, 2 of 60,
-agreement 100 %, SNR-I babble -0.5, factory -1.2, hall +2.1, wind +0.3 dB.
+agreement 100 %, SNR-I babble -0.5, factory -1.2, hall +2.1, wind +0.3 dB.  Left out of it, measured the
+same way: ``frame_snr_quiet`` (the SNR share's noise from the held-quiet frames; it removes one hall row's
+calibration leak) gives 8 / 3 rows above -30 and factory -0.6 / -1.6 dB (shared / built-in), mismatch loss
+0.9 / 4.5 / -0.3 dB; shrinking the DAS weight towards its prior for its first 3000 cells
+(``mix_ramp_cells=3000``, with ``frame_snr_quiet``) gives 3 / 0 rows above -30 (worst -27.9 / -33.7 dB) but
+costs factory 7-8 dB and babble 1.5-2.3 dB of SNR-I, and the ideal pair 17 dB at 240 deg: the trade again.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
