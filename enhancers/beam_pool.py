@@ -160,7 +160,7 @@ def pooled_mix_step(Yd, D, p1, learn, s_yd, s_dd, s_11, n, *, onehot, lam: float
     ``n`` cells the weight applied is ``alpha0 + min(1, n / ramp_cells) (alpha - alpha0)``.
 
     Shapes: ``Yd, D`` complex (F, K), ``p1`` (F, K), ``learn`` bool (F, K) or None, ``s_*`` and ``n``
-    (B,), ``onehot`` (K, B).  Returns ``(alphas (F, K), s_yd, s_dd, s_11, n)``.
+    (B,), ``onehot`` (K, B), or None for one band per bin (``B = K``).  Returns ``(alphas (F, K), s_yd, s_dd, s_11, n)``.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0); g = lambda: rng.standard_normal((300, 8)) + 1j * rng.standard_normal((300, 8))
@@ -170,15 +170,18 @@ def pooled_mix_step(Yd, D, p1, learn, s_yd, s_dd, s_11, n, *, onehot, lam: float
     >>> bool(abs(a[-1, 0] - 1.0) < 0.1)
     True
     """
-    band = onehot.argmax(axis=1)
     w = np.ones(p1.shape) if learn is None else learn.astype(float)
-    size = onehot.sum(axis=0)
-    f = (w @ onehot) / size
-    yd = ((Yd.real * D.real + Yd.imag * D.imag) * w) @ onehot / size
-    dd = ((D.real**2 + D.imag**2) * w) @ onehot / size
-    pm = (p1 * w) @ onehot / size
+    if onehot is None:  # one band per bin: the sums over a band are the cells themselves (no (K, K) products)
+        band, size, pool = np.arange(p1.shape[1]), 1.0, (lambda a: a)
+    else:
+        band, size = onehot.argmax(axis=1), onehot.sum(axis=0)
+        pool = (lambda a: a @ onehot / size)
+    f = pool(w)
+    yd = pool((Yd.real * D.real + Yd.imag * D.imag) * w)
+    dd = pool((D.real**2 + D.imag**2) * w)
+    pm = pool(p1 * w)
     s_yd, s_dd, s_11, n = (np.array(v, dtype=float) for v in (s_yd, s_dd, s_11, n))
-    out = np.empty((p1.shape[0], onehot.shape[1]))
+    out = np.empty(f.shape)
     for i in range(p1.shape[0]):  # a time-varying one-pole per band
         reg = eps * s_11 + TINY
         a = np.clip((s_yd + alpha0 * reg) / (s_dd + reg), 0.0, 1.0)

@@ -475,11 +475,10 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             np.zeros((n_ahead, K)))
         fs_, bs_, ps_, os_ = (np.concatenate([a, b]) for a, b in zip(pend, (cF, cB, p1, open_)))
         held, now = learn
-        eye = np.eye(K)
         zeros = [np.zeros(K)] * 4
         # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
         # re |X1|^2 would pull beta towards beta0 where the backward cardioid is weak (low frequencies)
-        kw = dict(onehot=eye, lam=float(p.beta_lam), eps=0.0, alpha0=float(p.beta0))
+        kw = dict(onehot=None, lam=float(p.beta_lam), eps=0.0, alpha0=float(p.beta0))
         st = zeros if sub.beta_ls is None else list(sub.beta_ls)
         learned = held * os_[:F]
         betas, *st = pooled_mix_step(fs_[:F], bs_[:F], ps_[:F], learned, *st, **kw)
