@@ -172,10 +172,14 @@ def pooled_mix_step(Yd, D, p1, learn, s_yd, s_dd, s_11, n, *, onehot, lam: float
     """
     w = np.ones(p1.shape) if learn is None else learn.astype(float)
     if onehot is None:  # one band per bin: the sums over a band are the cells themselves (no (K, K) products)
-        band, size, pool = np.arange(p1.shape[1]), 1.0, (lambda a: a)
+        band, size = np.arange(p1.shape[1]), 1.0
     else:
         band, size = onehot.argmax(axis=1), onehot.sum(axis=0)
-        pool = (lambda a: a @ onehot / size)
+
+    def pool(a):
+        """The band means of ``a (F, K)``: ``(F, B)``."""
+        return a if onehot is None else a @ onehot / size
+
     f = pool(w)
     yd = pool((Yd.real * D.real + Yd.imag * D.imag) * w)
     dd = pool((D.real**2 + D.imag**2) * w)
