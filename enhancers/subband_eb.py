@@ -80,6 +80,7 @@ and ``eb-robust-ss``'s SNR-I per noise rises by 0.2-0.4 dB; ``b = 1`` (the stric
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import ClassVar
@@ -136,8 +137,7 @@ class SubbandState:
     beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open), (D, K) each
     beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
     beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
-    beta_frames: int = 0  # beta_model="delayed": frames seen since the stream start
-    mix_frames: int = 0  # mix_model="delayed": frames seen since the stream start
+    frames: int = 0  # frames seen since the stream start, before this block (the delayed models' start)
 
 
 def subband_init(n_bins: int, beta0: float) -> SubbandState:
@@ -455,9 +455,9 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         # 1 / (1 - gate_lam) frames its ratio is one frame's -- a single low one would set the floor for
         # gate_floor_s (measured: a plane wave's first frames up to 10 dB below the rest, beta frozen for
         # 1.2 s).  Those frames are learned ungated: the start matters (a machine already running).
-        n_part = max(0, int(p.frame_len) // int(p.hop) - 1 - sub.beta_frames)
+        n_part = max(0, int(p.frame_len) // int(p.hop) - 1 - sub.frames)
         n_start = int(p.frame_len) // int(p.hop) - 1 + int(round(1.0 / (1.0 - gate_lam)))
-        m = min(F, max(0, n_start - sub.beta_frames))
+        m = min(F, max(0, n_start - sub.frames))
         frozen, changes = None, {}
         if F > m:  # (the gate needs frames)
             frozen, changes = _learn_frozen(cF[m:], cB[m:], sub, gate_db=gate_db, gate_lam=gate_lam,
@@ -486,11 +486,11 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
             n_before = (0.0 if sub.beta_ls is None else sub.beta_ls[3]) + np.cumsum(learned, axis=0) - learned
             fast = zeros if sub.beta_fast is None else list(sub.beta_fast)
-            (fq, bq, pq, oq), wq = self._lagged((fs_, bs_, ps_, os_), now, n_ahead, sub.beta_frames, fs)
+            (fq, bq, pq, oq), wq = self._lagged((fs_, bs_, ps_, os_), now, n_ahead, sub.frames, fs)
             quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
             betas = np.where(n_before >= float(p.beta_fast_frames), betas, quick)
             values["beta_fast"] = tuple(fast)
-        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]), beta_frames=sub.beta_frames + F,
+        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]),
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
 
@@ -554,13 +554,12 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             cells = held @ onehot  # (F, B); n_before: the cells the delayed weight learned before each frame
             n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
-            (yq, dq, pq), wq = self._lagged((ys, ds, ps), now, n_ahead, sub.mix_frames, fs)
+            (yq, dq, pq), wq = self._lagged((ys, ds, ps), now, n_ahead, sub.frames, fs)
             quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(p.mix_ramp_cells), **kw)
             band = onehot.argmax(axis=1)
             alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
             values["mix_fast"] = tuple(fast)
-        values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]),
-                      mix_frames=sub.mix_frames + F)
+        values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]))
         return alphas, SubbandState(**values)
 
     def _beamform(self, X1, X2, sub: SubbandState, fs: int, mix_frozen=None, beta_frozen=None, mix_learn=None):
@@ -583,7 +582,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             alphas, sub = self._mix(Y, D, p1, frozen, sub, fs, mix_learn=mix_learn)
             Y = Y - alphas * D
             record["alpha"] = alphas
-        return Y, record, sub
+        return Y, record, dataclasses.replace(sub, frames=sub.frames + X1.shape[0])
 
     def _apply_beam(self, X1, X2, record, fs):
         cF, cB = self._cardioids(X1, X2, fs)

@@ -855,8 +855,9 @@ def test_frame_snr_share_on_quiet_frames_closed_form():
 def test_frame_snr_quiet_measures_the_noise_alone():
     """``frame_snr_quiet``: the input-SNR estimate's noise average over the frames the held rule leaves quiet (30
     frames behind, their band powers pending) is the noise's own: two talker bursts 20 dB over diffuse noise
-    leave it within 2 % of the same estimate on the noise alone (the one-pole's spread over ~500 frames of 49
-    bins; measured 0.04 %).  Over every frame the ratio does not mark -- the bursts' quiet edges among them --
+    leave it within 2 % of the same estimate on the noise alone (measured 0.04 %; the two average different
+    frames: a frame's band power over 49 bins spreads by ~14 %, over the one-pole's ~375 frames by ~0.7 %,
+    so 2 % is about 3 of that).  Over every frame the ratio does not mark -- the bursts' quiet edges among them --
     it is >= 5 % high (measured 8 %)."""
     from enhancers.mic_calibration import _frame_weights, calibration_init
 
