@@ -300,6 +300,7 @@ class SubbandEbParams(StftParams):
     beta_lam: float = 0.9
     beta_fast_frames: float = 0.0
     fast_ahead_s: float = 0.0
+    mix_fast_ramp_cells: float | None = None
 
     def _check_subband(self):
         self._check_stft()
@@ -338,6 +339,8 @@ class SubbandEbParams(StftParams):
         check_range("beta_lam", self.beta_lam, 0.0, 1.0, hi_open=True)
         check_range("beta_fast_frames", self.beta_fast_frames, 0.0, 1e9)
         check_range("fast_ahead_s", self.fast_ahead_s, 0.0, float(getattr(self, "level_ahead_s", 0.0)))
+        if self.mix_fast_ramp_cells is not None:
+            check_range("mix_fast_ramp_cells", self.mix_fast_ramp_cells, 0.0, 1e9)
         if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
             raise ParameterError("beta_model", self.beta_model, "'bin' or 'direction' unless eb-robust calibrates "
                                  "(calibrate=True) with a talker-blind rule: the delayed beta learns where the "
@@ -555,7 +558,8 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
             (yq, dq, pq), wq = self._lagged((ys, ds, ps), now, n_ahead, sub.frames, fs)
-            quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(p.mix_ramp_cells), **kw)
+            ramp_q = p.mix_ramp_cells if p.mix_fast_ramp_cells is None else p.mix_fast_ramp_cells
+            quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(ramp_q), **kw)
             band = onehot.argmax(axis=1)
             alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
             values["mix_fast"] = tuple(fast)
@@ -620,6 +624,10 @@ class SubbandElkoBeamformer(SubbandBase):
         stand-in's length in learned frames per bin (0: none).
     fast_ahead_s : the start-up stand-ins (``mix_fast_cells``, ``beta_fast_frames``) learn a frame only once
         this much after it was heard quiet too (default 0: at once; at most ``level_ahead_s``).
+    mix_fast_ramp_cells : the DAS weight's stand-in's own shrinkage towards ``mix_alpha0`` (cells; default
+        None: ``mix_ramp_cells``, as the delayed weight's): a long shrinkage of the delayed weight keeps the
+        weight of a talk-filled stream, learned from few quiet frames, near its prior, while the stand-in
+        must null a machine heard from the stream's start.
     beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
         cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
         :func:`enhancers.beam_pool.direction_beta_step`.

@@ -486,7 +486,8 @@ def test_delayed_beta_streams_as_one_pass():
                                        ("eb-subband", {"beta_model": "delayed"}),
                                        ("eb-robust", {**FRAME_BETA, "beta_lam": 1.0}),
                                        ("eb-robust", {**FRAME_BETA, "beta_fast_frames": -1.0}),
-                                       ("eb-robust", {**FRAME_BETA, "fast_ahead_s": 0.5})])
+                                       ("eb-robust", {**FRAME_BETA, "fast_ahead_s": 0.5}),
+                                       ("eb-robust", {**FRAME_BETA, "mix_fast_ramp_cells": -1.0})])
 def test_delayed_beta_parameters_are_checked(name, bad):
     """The delayed beta learns where eb-robust's talker-blind calibration does: without it (or with a bad
     average factor, stand-in length, or a stand-in look ahead beyond the calibration's) it is a one-line
@@ -518,3 +519,18 @@ def test_fast_ahead_delays_the_stand_in_by_its_look_ahead(rng):
     assert 125 <= h <= 145  # the talker's onset at 1 s = frame 125, its syllable rising over ~0.1 s (measured 138)
     np.testing.assert_allclose(late[12:h], now[:h - 12], rtol=0, atol=1e-12)
     np.testing.assert_allclose(late[h:], np.broadcast_to(now[h - 12], late[h:].shape), rtol=0, atol=1e-12)
+
+
+def test_fast_stand_in_has_its_own_ramp(rng):
+    """``mix_fast_ramp_cells``: the DAS weight's stand-in shrinks towards its prior with its own length.  Closed
+    form: a rear plane wave from the start (least-squares weight 0, clipped) and the prior 1, so the stand-in at
+    frame ``i`` is ``1 - min(1, n_i / R)`` with ``n_i = 48 i`` the cells of the 1-4 kHz band learned before it
+    (R = 2000; to 1e-12 over the first 60 frames); and it is the same weight as with ``mix_ramp_cells=R`` and
+    no own length (the stand-in used throughout, ``mix_fast_cells`` huge)."""
+    x = plane_wave_pair(rng.standard_normal(2 * FS), az_deg=150)
+    base = {**FRAME_DELAYED, "mix_fast_cells": 1e9}
+    own = make("eb-robust", **base, mix_ramp_cells=1e9, mix_fast_ramp_cells=2000.0).process(x, FS).trace["alpha"]
+    shared = make("eb-robust", **base, mix_ramp_cells=2000.0).process(x, FS).trace["alpha"]
+    np.testing.assert_array_equal(own, shared)
+    i = np.arange(60)
+    np.testing.assert_allclose(own[:60, 40], 1.0 - np.minimum(1.0, 48 * i / 2000.0), rtol=0, atol=1e-12)
