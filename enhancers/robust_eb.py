@@ -71,6 +71,7 @@ from enhancers.mic_calibration import (
 )
 from enhancers.subband_eb import SubbandBase, SubbandEbParams, subband_init
 from scenesim.errors import ParameterError
+from scenesim.validate import check_range
 
 __all__ = ["EbRobustSs", "RobustElkoBeamformer"]
 
@@ -113,6 +114,8 @@ class RobustElkoBeamformer(SubbandBase):
         def __post_init__(self):
             self._check_subband()
             self._check_calibration()
+            # the start-up stand-ins look ahead within the calibration's pending frames
+            check_range("fast_ahead_s", self.fast_ahead_s, 0.0, float(self.level_ahead_s))
             if not isinstance(self.calibrate, bool):
                 raise ParameterError("calibrate", self.calibrate, "True or False")
 

@@ -338,7 +338,7 @@ class SubbandEbParams(StftParams):
         check_choice("beta_model", self.beta_model, ("bin", "direction", "delayed"))
         check_range("beta_lam", self.beta_lam, 0.0, 1.0, hi_open=True)
         check_range("beta_fast_frames", self.beta_fast_frames, 0.0, 1e9)
-        check_range("fast_ahead_s", self.fast_ahead_s, 0.0, float(getattr(self, "level_ahead_s", 0.0)))
+        check_range("fast_ahead_s", self.fast_ahead_s, 0.0, 60.0)  # (eb-robust: at most level_ahead_s)
         if self.mix_fast_ramp_cells is not None:
             check_range("mix_fast_ramp_cells", self.mix_fast_ramp_cells, 0.0, 1e9)
         if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
