@@ -405,6 +405,10 @@ class CalibrationParams(StftParams):
         """True when a level, calibrated-direction or frame rule (the talker-blind mode, issue 16) is on."""
         return self.freeze_level_db is not None or self.cal_frontal_db is not None or self.frame_q_db is not None
 
+    def look_ahead_frames(self, fs: int) -> int:
+        """``D``: the frames the talker-blind averages run behind the input (``level_ahead_s``; 0 without a rule)."""
+        return int(round(float(self.level_ahead_s) * fs / int(self.hop))) if self.talker_blind else 0
+
     def _check_calibration(self):
         self._check_stft()
         check_range("tau_s", self.tau_s, 0.0, 600.0, lo_open=True)
@@ -992,7 +996,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
     # the averages run level_ahead_s (D frames) behind the input, so the level rule can freeze
     # a frame for what comes after it too (a talker's onset rises over several frames)
-    n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.talker_blind else 0
+    n_ahead = p.look_ahead_frames(fs)
     pend_x, pend_card, pend_loud = _pending(state, n_ahead)
     xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn]), np.concatenate([pend_loud, loud])
     learn_frozen, level_now, changes["last_loud"] = _learning_mask(

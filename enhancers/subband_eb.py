@@ -209,6 +209,15 @@ def subband_beta_step(cF, cB, X1, state: SubbandState, *, mu: float, lam: float,
     return betas, SubbandState(**values)
 
 
+def _pending(pend, new, n_ahead: int) -> tuple:
+    """The rows waiting for the calibration's judgement followed by the block's, array by array: ``pend``
+    (``(D, K)`` each) or, at the stream start, ``n_ahead`` zero placeholder rows (the calibration judges as
+    many placeholder frames first, with weight 0), then ``new`` (``(F, K)`` each)."""
+    if pend is None:
+        pend = tuple(np.zeros((n_ahead,) + a.shape[1:], dtype=a.dtype) for a in new)
+    return tuple(np.concatenate([a, b]) for a, b in zip(pend, new))
+
+
 def _clipped_recursion(keep: np.ndarray, gain: np.ndarray, w0: np.ndarray):
     """``w[l+1] = clip(w[l] keep[l] + gain[l], 0, 1)`` from ``w[0] = w0``: ``(w[0..F-1] (F, K), w[F])``."""
     out = np.empty(keep.shape)
@@ -471,12 +480,8 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             frozen = np.concatenate([start, frozen if frozen is not None else np.zeros((0, K), dtype=bool)])
         p1 = smooth_frames(X1.real**2 + X1.imag**2, float(p.lam), sub.p_1) if F else np.zeros((0, K))
         open_ = np.ones((F, K)) if frozen is None else (~frozen).astype(float)
-        n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop)))
-        # at the stream start the calibration judges n_ahead empty placeholder frames first (weight 0)
-        pend = sub.beta_pend if sub.beta_pend is not None else (
-            np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K)),
-            np.zeros((n_ahead, K)))
-        fs_, bs_, ps_, os_ = (np.concatenate([a, b]) for a, b in zip(pend, (cF, cB, p1, open_)))
+        n_ahead = p.look_ahead_frames(fs)  # (eb-robust's calibration parameters)
+        fs_, bs_, ps_, os_ = _pending(sub.beta_pend, (cF, cB, p1, open_), n_ahead)
         held, now = learn
         zeros = [np.zeros(K)] * 4
         # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
@@ -540,12 +545,9 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         K), now (F, K))``: the weights of the frames reached now and of the block's own frames, on which the
         start-up weight learns at once (``mix_fast_cells``)."""
         p = self.params  # (the parameter check admits "delayed" only where eb-robust's calibration gives learn)
-        F, K = Y.shape
-        n_ahead = int(round(float(p.level_ahead_s) * fs / int(p.hop))) if p.talker_blind else 0
-        # at the stream start the calibration judges n_ahead empty placeholder frames first (weight 0)
-        pend = sub.mix_pend if sub.mix_pend is not None else (
-            np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K), dtype=complex), np.zeros((n_ahead, K)))
-        ys, ds, ps = (np.concatenate([a, b]) for a, b in zip(pend, (Y, D, p1)))
+        F = Y.shape[0]
+        n_ahead = p.look_ahead_frames(fs)  # (eb-robust's calibration parameters)
+        ys, ds, ps = _pending(sub.mix_pend, (Y, D, p1), n_ahead)
         onehot = band_onehot(bin_omega(int(p.frame_len)) / (2 * np.pi) * fs, p.mix_bands_hz)
         held, now = learn
         zeros = [np.zeros(onehot.shape[1])] * 4
