@@ -344,7 +344,8 @@ class CalibrationState:
     q_cal: GateState         # the calibrated direction rule's smoothed cardioid powers
     r_dir: np.ndarray        # complex (K,) the estimate that rule uses (the last chunk start's)
     q_rear: GateState | None = None  # the rear rule's smoothed cardioid powers (cal_rear_db)
-    pend_rear: np.ndarray | None = None  # bool (D, K): the rear rule's decisions of the pending frames
+    pend_rear: np.ndarray | None = None  # bool (D, K): the rear rule's decisions of the pending frames (uint8
+    #                                       levels 0 / 1 / 2 with cal_rear_low_db)
     theta: np.ndarray | None = None  # (4,) model="hp1": the last fit (calibration_model), None: the prior
     q_frame: GateState | None = None  # the frame rule's smoothed band cardioid powers (frame_q_db), (1,)
     w_tail: np.ndarray | None = None  # (H + D,) the frame rule's weights of the frames before the block
@@ -387,6 +388,7 @@ class CalibrationParams(StftParams):
     cal_chunk: int = 8
     cal_frontal_beam: bool = False
     cal_rear_db: float | None = None
+    cal_rear_low_db: float | None = None
     model: str = "bins"
     model_band_hz: tuple[float, float] = (100.0, 4000.0)
     model_iter: int = 3
@@ -398,6 +400,7 @@ class CalibrationParams(StftParams):
     frame_snr_db: tuple | None = None
     frame_low_hz: float | None = None
     frame_level_db: float | None = None
+    frame_level_soft_db: float = 0.0
     frame_snr_quiet: bool = False
 
     @property
@@ -444,6 +447,11 @@ class CalibrationParams(StftParams):
         check_int("cal_chunk", self.cal_chunk, minimum=1, maximum=10000)
         if self.cal_rear_db is not None:
             check_range("cal_rear_db", self.cal_rear_db, 0.0, 60.0)
+        if self.cal_rear_low_db is not None:  # a second, lower threshold where the input SNR is low
+            if self.cal_rear_db is None or self.frame_q_db is None or self.frame_snr_db is None:
+                raise ParameterError("cal_rear_low_db", self.cal_rear_low_db,
+                                     "None unless cal_rear_db, frame_q_db and frame_snr_db are set")
+            check_range("cal_rear_low_db", self.cal_rear_low_db, 0.0, float(self.cal_rear_db))
         if not isinstance(self.cal_frontal_beam, bool):
             raise ParameterError("cal_frontal_beam", self.cal_frontal_beam, "True or False")
         if self.level_scope not in LEVEL_SCOPE:
@@ -465,6 +473,8 @@ class CalibrationParams(StftParams):
             raise ParameterError("frame_snr_quiet", self.frame_snr_quiet, "True or False")
         if self.frame_level_db is not None:
             check_range("frame_level_db", self.frame_level_db, 0.0, 60.0, lo_open=True)
+        check_range("frame_level_soft_db", self.frame_level_soft_db, 0.0,
+                    float(self.frame_level_db) if self.frame_level_db is not None else 0.0)
         if self.frame_low_hz is not None:
             check_range("frame_low_hz", self.frame_low_hz, 0.0, float(self.frame_band_hz[0]), hi_open=True)
         if self.frame_snr_db is not None:
@@ -540,8 +550,8 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     ``changes`` gets the new state."""
     w, changes["q_frame"], talker, power = _frame_rule(X1, X2, state, p, fs=fs, delay=delay)
     if p.frame_level_db is not None:  # a frame far above the noise floor is not learned either
-        loud, changes["q_frame_level"] = _frame_level_rule(X1, X2, state, p, fs=fs)
-        w = np.where(loud, 0.0, w)
+        level_w, changes["q_frame_level"] = _frame_level_rule(X1, X2, state, p, fs=fs)
+        w = w * level_w
     n_hang = int(round(float(p.level_hang_s) * fs / int(p.hop)))
     tail = state.w_tail if state.w_tail is not None else np.ones(n_hang + n_ahead)  # the stream start: no hold
     seq = np.concatenate([tail, w])
@@ -740,10 +750,17 @@ def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
 
 
 def _frame_level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int):
-    """``frame_level_db``: ``(loud (F,), gate state)``, True where the frame's power over the frame rule's bands
+    """``frame_level_db``: ``(weights (F,), gate state)``, 0 where the frame's power over the frame rule's bands
     (both mics, ``frame_low_hz`` or ``frame_band_hz``'s lower edge up to its upper edge), one-pole smoothed
     (``gate_lam_cal``), is more than ``frame_level_db`` above its running minimum over ``level_floor_s``
-    (minimum statistics: the noise floor).
+    (minimum statistics: the noise floor), 1 elsewhere; with ``frame_level_soft_db`` the weight falls
+    linearly in dB from 1 at ``frame_level_db - frame_level_soft_db`` to 0 at ``frame_level_db``.
+
+    Why graded: the averages (the calibration's, beta's, the DAS weight's) are power-weighted, so one frame
+    10-20 dB over the floor that the ratio misses (a reverberant talker's onset: the ratio is weak there)
+    outweighs tens of noise frames, and its talker x noise term, which changes sign between ``s + n`` and
+    ``s - n``, moves them; graded, such a frame weighs little, and a frame near the threshold weighs little in
+    both runs instead of all in one and nothing in the other.
 
     Why a level as well as the ratio: the phone's uncalibrated pair hardly tells the talker from a diffuse
     field below 1 kHz (its ratio there is ~0-5 dB, measured on the ``phone`` preset), and a voiced syllable
@@ -760,13 +777,18 @@ def _frame_level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, 
     m = min(F, max(0, n_start - state.n_frames))
     gate = state.q_frame_level if state.q_frame_level is not None else gate_init(1)
     if m == F:
-        return np.zeros(F, dtype=bool), gate
+        return np.ones(F), gate
     if state.n_frames + m <= n_start:  # the smoother starts at the first full frame's level, not at 0
         gate = dataclasses.replace(gate, pf=e[m].copy())
     n_window = max(1, int(math.ceil(float(p.level_floor_s) * fs / int(p.hop))))
-    loud, gate = power_ratio_gate(e[m:], np.ones_like(e[m:]), state=gate, gate_db=float(p.frame_level_db),
-                                  lam=float(p.gate_lam_cal), n_window=n_window, cap=math.inf)
-    return np.concatenate([np.zeros(m, dtype=bool), loud[:, 0]]), gate
+    excess = []
+    top, width = float(p.frame_level_db), float(p.frame_level_soft_db)
+    loud, gate = power_ratio_gate(e[m:], np.ones_like(e[m:]), state=gate, gate_db=top, lam=float(p.gate_lam_cal),
+                                  n_window=n_window, cap=math.inf, ratio_out=excess if width > 0 else None)
+    w = (~loud[:, 0]).astype(float)
+    if width > 0:  # graded in dB below the threshold (loud frames stay 0: the same comparison)
+        w = np.where(loud[:, 0], 0.0, np.clip((top - 10.0 * np.log10(excess[0][:, 0])) / width, 0.0, 1.0))
+    return np.concatenate([np.ones(m), w]), gate
 
 
 def _propagation_slope(s21: np.ndarray, band: slice, max_slope: float) -> np.ndarray:
@@ -969,6 +991,9 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
     if p.cal_rear_db is not None:
         q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
         rear, changes["q_rear"] = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_db), **rule)
+        if p.cal_rear_low_db is not None:  # 2: over cal_rear_db, 1: over cal_rear_low_db only (same smoothing)
+            low, _ = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_low_db), **rule)
+            rear = rear.astype(np.uint8) + low
     return fires, rear, changes
 
 
@@ -1009,10 +1034,11 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         level_now = level_now | talking[:, None]
     rear_now = None
     if rear is not None:  # judged on the block's frames, which the averages reach n_ahead frames later
-        pend_rear = state.pend_rear if state.pend_rear is not None else np.zeros((n_ahead, rear.shape[1]), dtype=bool)
+        pend_rear = (state.pend_rear if state.pend_rear is not None
+                     else np.zeros((n_ahead, rear.shape[1]), dtype=rear.dtype))
         rears = np.concatenate([pend_rear, rear])
         rear_now = rears[:F]
-        learn_frozen = learn_frozen & ~rear_now
+        learn_frozen = learn_frozen & ~(rear_now > 0)
         changes["pend_rear"] = rears[F:]
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
@@ -1030,7 +1056,9 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         else:  # frame_snr_db: from the cardioid rules' cells at low input SNR to the frame rule's at high
             real = (state.n_frames + np.arange(F)) >= n_ahead  # not the stream start's placeholders
             wt = kappa[:, None] * (real * frame_w)[:, None] + (1.0 - kappa[:, None]) * active
-        if rear_now is not None:  # a rear-dominated cell is learned in a talker's frame too
+        if rear_now is not None and p.cal_rear_low_db is not None:  # the low threshold counts as the share
+            wt = np.maximum(wt, np.where(rear_now >= 2, 1.0, (rear_now == 1) * (1.0 - kappa[:, None])))  # falls
+        elif rear_now is not None:  # a rear-dominated cell is learned in a talker's frame too
             wt = np.maximum(wt, rear_now)
         if learn_out is not None:
             learn_out.append((wt, np.broadcast_to(frame_now[:, None], wt.shape).copy()))

@@ -734,6 +734,38 @@ def test_frame_snr_share_switches_between_the_rules():
     assert frame[burst].max() == 0.0 and low[burst].mean() > 0.01
 
 
+def _rear_scene(seed: int):
+    """:func:`_talker_bursts` plus a rear plane wave (150 deg, 6 dB over the diffuse noise): its cells'
+    backward/forward ratio lies on both sides of 6 and 10 dB (at 5x it is over both almost everywhere)."""
+    s, n = _talker_bursts(seed)
+    return s + n + 2.0 * plane_wave_pair(np.random.default_rng(seed + 1).standard_normal(s.shape[1]), az_deg=150)
+
+
+def test_rear_low_threshold_follows_the_snr_share():
+    """``cal_rear_low_db`` (issue 16): the rear rule's threshold is ``cal_rear_db`` where the frame rule's share
+    is 1 (high input SNR) and ``cal_rear_low_db`` where it is 0.  Oracle: the same arithmetic with one
+    threshold -- share forced to 1 (``frame_snr_db=(-60, -50)``): the weights of ``cal_rear_db=10`` alone to
+    the last bit; forced to 0 (``(50, 60)``): those of ``cal_rear_db=6`` alone.  Control: the two differ in
+    this scene at both shares (measured: mean |difference| of the weights 0.038 at share 1, 0.12 at 0), so
+    each equality can fail."""
+    x = _rear_scene(36)
+    rule = dict(FRAME_RULE, cal_rear_db=10.0)
+    for share, one in (((-60.0, -50.0), 10.0), ((50.0, 60.0), 6.0)):
+        two = _learn_weights(x, **rule, frame_snr_db=share, cal_rear_low_db=6.0)
+        np.testing.assert_array_equal(two, _learn_weights(x, **dict(rule, cal_rear_db=one), frame_snr_db=share))
+    for share in ((-60.0, -50.0), (50.0, 60.0)):
+        hi, lo = (_learn_weights(x, **dict(rule, cal_rear_db=t), frame_snr_db=share) for t in (10.0, 6.0))
+        assert np.abs(hi - lo).mean() > 0.02
+
+
+def test_blocks_match_one_pass_with_the_rear_low_threshold():
+    """Streaming (blocks of 1, 5, 37 and the rest) == one pass with both rear thresholds: the pending frames'
+    levels (0 / 1 / 2, ``CalibrationState.pend_rear``) and the SNR share are carried.  Oracle: the same
+    computation, to 1e-12 (and masks exactly)."""
+    e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), cal_rear_db=10.0, cal_rear_low_db=6.0)
+    _assert_blocks_match_one_pass(e, _rear_scene(37)[:, : 3 * FS], (1, 6, 43))
+
+
 def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
     """The weights the DAS weight may learn at once (``mix_fast_cells``): the frame rule's own, frame by frame,
     from the stream start until it first weighs a frame below 1 -- the talker's first burst at 4 s (less the
@@ -815,13 +847,50 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
     assert w[(t < 1.95) | (t > 2.6)].min() == 1.0
 
 
+def test_frame_level_rule_grades_the_weight_below_the_threshold():
+    """``frame_level_soft_db = 14`` with ``frame_level_db = 20``: the weight falls linearly in dB from 1 at 6 dB
+    over the floor to 0 at 20 dB.  Closed form: a 12 dB step of diffuse noise lies 12 dB over the floor plus
+    the minimum-statistics bias (<= 2 dB for the band's ~120 bins, smoothed), so its frames weigh
+    ``(20 - excess) / 14`` in [0.43, 0.57] (measured 0.44-0.56); the frames before and after it, a few dB over
+    the floor, weigh 1; a 28 dB step weighs 0, as without grading."""
+    rng = np.random.default_rng(9)
+    n = 5 * FS
+    noise = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
+    on = (np.arange(n) >= 2 * FS) & (np.arange(n) < int(2.5 * FS))
+    t = step = None
+    for step_db in (12.0, 28.0):
+        w = _frame_weights_of(noise * np.where(on, 10 ** (step_db / 20), 1.0), frame_level_db=20.0,
+                              frame_level_soft_db=14.0, level_hang_s=0.0, level_ahead_s=0.0)
+        t = np.arange(w.size) * 128 / FS
+        step = (t > 2.05) & (t < 2.45)
+        if step_db == 12.0:
+            assert 6 / 14 <= w[step].min() and w[step].max() <= 8 / 14
+            assert w[(t < 1.95) | (t > 2.6)].min() == 1.0
+        else:
+            assert w[step].max() == 0.0
+
+
 @pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0},
-                                 {"frame_snr_quiet": "yes"}])
+                                 {"frame_snr_quiet": "yes"}, {"frame_level_soft_db": 5.0},
+                                 {"frame_level_db": 20.0, "frame_level_soft_db": 25.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
     with pytest.raises(ParameterError):
         make("mic-calibration", frame_q_db=5.0, **bad)
+
+
+@pytest.mark.parametrize("bad", [{"cal_rear_low_db": 6.0},  # no frame_snr_db: no share to follow
+                                 {"cal_rear_low_db": 6.0, "frame_snr_db": (6.0, 12.0)},  # no cal_rear_db
+                                 {"cal_rear_low_db": 12.0, "frame_snr_db": (6.0, 12.0), "cal_rear_db": 10.0},
+                                 {"cal_rear_low_db": -1.0, "frame_snr_db": (6.0, 12.0), "cal_rear_db": 10.0}])
+def test_rear_low_threshold_parameters_are_checked(bad):
+    """One-line errors; the valid neighbour (low 6 <= 10 dB, with the share) is accepted."""
+    from scenesim.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="cal_rear_low_db"):
+        make("mic-calibration", frame_q_db=5.0, **bad)
+    make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0), cal_rear_db=10.0, cal_rear_low_db=6.0)
 
 
 def test_blocks_match_one_pass_with_the_frame_rules_low_band_and_level():
