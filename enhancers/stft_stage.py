@@ -118,7 +118,7 @@ def ratio_gate(cF, cB, **kwargs):
 
 
 def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_window: int,
-                     floor_lam: float | None = None, cap: float = 1.0, ratio_out: list | None = None):
+                     floor_lam: float | None = None, cap: float = 1.0):
     """Per-bin "frontal source dominates" detector (the rule of ``eb-gated``, per bin).
 
     ``r = 10 log10(P_F / P_B)`` of the one-pole smoothed (``lam`` per frame) powers ``eF``,
@@ -129,7 +129,7 @@ def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_
     fluctuating ratio sits below its mean, so a fast detector compared with the minimum of
     its own fluctuations freezes stationary noise most of the time.  A rear source gives
     ``r < 0``, a diffuse field ~0 dB, a frontal talker ``r > 0``.  (``cap``: the reference
-    is ``min(floor, cap)``.)  ``ratio_out`` (a list): ``r / reference`` ``(F, K)``, linear, is appended to it.
+    is ``min(floor, cap)``.)
 
     Returns ``(frozen (F, K) bool, new GateState)``.
     """
@@ -160,8 +160,6 @@ def power_ratio_gate(eF, eB, *, state: GateState, gate_db: float, lam: float, n_
         ref = np.minimum(rf, cap)
     else:
         ref = np.full_like(r, min(cap, 1.0))
-    if ratio_out is not None:
-        ratio_out.append(r / ref)
     return r > ref * 10.0 ** (gate_db / 10.0), GateState(pf=pf[-1].copy(), pb=pb[-1].copy(), sf=sf, sb=sb, hist=hist)
 
 
