@@ -799,6 +799,53 @@ def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
     np.testing.assert_array_equal(run(7), now)
 
 
+@pytest.mark.parametrize("blocks", [None, 5])
+def test_frame_start_frames_are_neither_learned_nor_heard(blocks):
+    """``frame_start_s = 0.1`` (12 frames of 128 samples): a talker click in the stream's first 24 ms (10 dB over
+    the diffuse noise; a real recording's start transient) is heard by the rule, which without the option
+    ends the start-up weights at frame 0 and holds the frames of its hold (0.2 s) out of the averages.
+    Closed form with the option (the click and the ~5 frames the rule's smoother, 0.7 per frame, keeps its
+    ratio over 5 dB lie inside the 12 frames, whose decisions are not trusted): every frame up to the talker's
+    burst at 4 s weighs 1 in the start-up weights and in the averages (held weights; inside ``eb-robust``
+    too), and the SNR share has seen no talker frame (state ``snr``: no talker count); streaming in blocks
+    of 5 frames gives the same."""
+    import dataclasses
+
+    from enhancers.mic_calibration import _frame_weights, calibration_init
+
+    rng = np.random.default_rng(8)
+    n = 6 * FS
+    noise = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
+    t = np.arange(n) / FS
+    on = (t < 0.024) | ((t >= 4.0) & (t < 4.5))
+    talk = plane_wave_pair(rng.standard_normal(n), az_deg=45) * on * np.sqrt(10.0)
+    X = make("mic-calibration").filterbank.analyze(noise + talk)
+    d = 30  # level_ahead_s 0.24 s
+
+    def run(start_s, X=X):
+        e = make("mic-calibration", **FRAME_RULE, frame_start_s=start_s, frame_snr_db=(6.0, 12.0))
+        kw = dict(p=e.params, fs=FS, delay=e.delay_samples(FS), n_ahead=d)
+        state, helds, nows, step = calibration_init(X.shape[2]), [], [], blocks or X.shape[1]
+        for lo in range(0, X.shape[1], step):
+            changes = {}
+            held, _, now, _ = _frame_weights(X[0, lo:lo + step], X[1, lo:lo + step], state, changes=changes, **kw)
+            state = dataclasses.replace(state, **changes, n_frames=state.n_frames + len(now))  # (as _masks_step)
+            helds.append(held)
+            nows.append(now)
+        return np.concatenate(helds)[d:], np.concatenate(nows), state
+
+    held0, now0, _ = run(0.0)
+    held, now, state = run(0.1)
+    tf = np.arange(now.size) * 128 / FS
+    assert now0.max() == 0.0 and held0[:25].max() == 0.0  # the control: the click ends the start-up
+    assert now[tf < 3.7].min() == 1.0 and held[tf[:held.size] < 3.7].min() == 1.0
+    before = X[:, :int(3.5 * FS / 128)]  # state.snr[1]: the talker frames the share counted before the burst
+    assert run(0.1, before)[2].snr[1] == 0.0 and run(0.0, before)[2].snr[1] > 0.0
+    # the averages' weights inside eb-robust (rows D behind the frames)
+    wts = _learn_weights(noise + talk, **FRAME_RULE, frame_start_s=0.1, frame_snr_db=(6.0, 12.0))
+    assert wts[d:d + int(3.7 * FS / 128)].min() == 1.0
+
+
 def _low_band_talker(rng, n):
     """White diffuse noise, ``(2, n)``, and a talker at 45 deg with power only in 300-900 Hz (brick-wall), 10 dB
     above the noise in that band, 2-2.5 s, ideal pair; and the burst's mask."""
@@ -848,7 +895,7 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
 
 
 @pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0},
-                                 {"frame_snr_quiet": "yes"}])
+                                 {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
