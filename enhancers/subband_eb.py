@@ -218,6 +218,21 @@ def _pending(pend, new, n_ahead: int) -> tuple:
     return tuple(np.concatenate([a, b]) for a, b in zip(pend, new))
 
 
+def _hand_over(quick: np.ndarray, late: np.ndarray, n: np.ndarray, n_full: float, blend: bool) -> np.ndarray:
+    """A start-up stand-in ``quick`` handing over to the delayed estimate ``late`` (both ``(F, K)``) as the delayed
+    one's learned count ``n (F, K)`` reaches ``n_full``: at once (``blend=False``), or linearly in ``n``.
+
+    >>> import numpy as np
+    >>> _hand_over(np.zeros(3), np.ones(3), np.array([0.0, 5.0, 20.0]), 10.0, True).tolist()
+    [0.0, 0.5, 1.0]
+    >>> _hand_over(np.zeros(3), np.ones(3), np.array([0.0, 5.0, 20.0]), 10.0, False).tolist()
+    [0.0, 0.0, 1.0]
+    """
+    if blend:
+        return quick + np.minimum(1.0, n / n_full) * (late - quick)
+    return np.where(n >= n_full, late, quick)
+
+
 def _clipped_recursion(keep: np.ndarray, gain: np.ndarray, w0: np.ndarray):
     """``w[l+1] = clip(w[l] keep[l] + gain[l], 0, 1)`` from ``w[0] = w0``: ``(w[0..F-1] (F, K), w[F])``."""
     out = np.empty(keep.shape)
@@ -310,6 +325,7 @@ class SubbandEbParams(StftParams):
     beta_fast_frames: float = 0.0
     fast_ahead_s: float = 0.0
     mix_fast_ramp_cells: float | None = None
+    fast_blend: bool = False
 
     def _check_subband(self):
         self._check_stft()
@@ -350,6 +366,8 @@ class SubbandEbParams(StftParams):
         check_range("fast_ahead_s", self.fast_ahead_s, 0.0, 60.0)  # (eb-robust: at most level_ahead_s)
         if self.mix_fast_ramp_cells is not None:
             check_range("mix_fast_ramp_cells", self.mix_fast_ramp_cells, 0.0, 1e9)
+        if not isinstance(self.fast_blend, bool):
+            raise ParameterError("fast_blend", self.fast_blend, "True or False")
         if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
             raise ParameterError("beta_model", self.beta_model, "'bin' or 'direction' unless eb-robust calibrates "
                                  "(calibrate=True) with a talker-blind rule: the delayed beta learns where the "
@@ -496,7 +514,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             fast = zeros if sub.beta_fast is None else list(sub.beta_fast)
             (fq, bq, pq, oq), wq = self._lagged((fs_, bs_, ps_, os_), now, n_ahead, sub.frames, fs)
             quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
-            betas = np.where(n_before >= float(p.beta_fast_frames), betas, quick)
+            betas = _hand_over(quick, betas, n_before, float(p.beta_fast_frames), p.fast_blend)
             values["beta_fast"] = tuple(fast)
         values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]),
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
@@ -563,7 +581,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             ramp_q = p.mix_ramp_cells if p.mix_fast_ramp_cells is None else p.mix_fast_ramp_cells
             quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(ramp_q), **kw)
             band = onehot.argmax(axis=1)
-            alphas = np.where(n_before[:, band] >= float(p.mix_fast_cells), alphas, quick)
+            alphas = _hand_over(quick, alphas, n_before[:, band], float(p.mix_fast_cells), p.fast_blend)
             values["mix_fast"] = tuple(fast)
         values.update(zip(("alpha", "p_d", "p_m", "mix_n"), st), mix_pend=(ys[F:], ds[F:], ps[F:]))
         return alphas, SubbandState(**values)
@@ -626,6 +644,11 @@ class SubbandElkoBeamformer(SubbandBase):
         stand-in's length in learned frames per bin (0: none).
     fast_ahead_s : the start-up stand-ins (``mix_fast_cells``, ``beta_fast_frames``) learn a frame only once
         this much after it was heard quiet too (default 0: at once; at most ``level_ahead_s``).
+    fast_blend : the stand-ins hand over to the delayed estimates linearly in the learned count (``quick +
+        min(1, n / N) (delayed - quick)``) instead of at once at ``N`` (default False): the count differs a
+        little between the runs on ``s + n`` and ``s - n``, and a switch at a count changes the weight by the
+        two estimates' whole difference in one run only (measured on ``phone``'s hall at 15 dB: 0.79 for 100
+        frames).
     mix_fast_ramp_cells : the DAS weight's stand-in's own shrinkage towards ``mix_alpha0`` (cells; default
         None: ``mix_ramp_cells``, as the delayed weight's): a long shrinkage of the delayed weight keeps the
         weight of a talk-filled stream, learned from few quiet frames, near its prior, while the stand-in

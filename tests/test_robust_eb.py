@@ -374,6 +374,27 @@ def test_fast_start_stands_in_for_the_delayed_weight(rng):
     np.testing.assert_allclose(fast[late:], slow[late:], rtol=0, atol=1e-12)
 
 
+def test_fast_blend_hands_over_linearly_in_the_learned_cells(rng):
+    """``fast_blend``: the DAS weight is ``quick + min(1, n / 500) (delayed - quick)``, ``n`` the delayed weight's
+    learned cells of the band.  Closed form for a rear plane wave: every frame is learned from the delayed
+    weight's first (frame D = 30, the look ahead) on, so ``n = (t - 30) K_b`` at frame ``t``, ``K_b`` = 16 / 48 /
+    65 bins below 1 kHz / 1-4 kHz / above.  With the stand-in's trace (``mix_fast_cells`` huge) and the delayed
+    one's (no stand-in), the blend is that formula to 1e-12 in every bin; without ``fast_blend`` it is more
+    than 0.01 off (the switch at 500 cells)."""
+    x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=150)
+
+    def alpha(**kw):
+        return make("eb-robust", **FRAME_DELAYED, **kw).process(x, FS).trace["alpha"]
+
+    quick, late = alpha(mix_fast_cells=1e9), alpha(mix_fast_cells=0.0)
+    f = np.arange(129) * FS / NFFT
+    n_bins = np.where(f < 1000, 16, np.where(f < 4000, 48, 65))
+    t = np.arange(quick.shape[0])[:, None]
+    formula = quick + np.clip((t - 30) * n_bins / 500, 0.0, 1.0) * (late - quick)
+    np.testing.assert_allclose(alpha(mix_fast_cells=500.0, fast_blend=True), formula, rtol=0, atol=1e-12)
+    assert np.abs(alpha(mix_fast_cells=500.0) - formula).max() > 0.01
+
+
 @pytest.mark.parametrize("extra, frozen", [({"beam_freeze": "level"}, True), ({"beam_freeze": "das"}, False),
                                            ({"beam_freeze": "level", "frame_snr_db": (50.0, 60.0)}, False)])
 def test_frame_rule_freezes_beta_where_it_hears_the_talker(extra, frozen):
@@ -471,6 +492,23 @@ def test_fast_start_stands_in_for_the_delayed_beta(rng):
     np.testing.assert_allclose(fast[late:], slow[late:], rtol=0, atol=1e-12)
 
 
+def test_fast_blend_hands_over_beta_linearly_in_the_learned_frames(rng):
+    """``fast_blend`` for the delayed beta: ``quick + min(1, n / 10) (delayed - quick)``, ``n`` the bin's learned
+    frames.  Closed form for a rear plane wave (every frame learned by every bin from the first full frame on,
+    which reaches the delayed average at frame 1 + 30): ``n = t - 31``; to 1e-12, and more than 0.01 off
+    without the blend."""
+    x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=135)
+
+    def beta(**kw):
+        return make("eb-robust", **FRAME_BETA, beta0=0.5, **kw).process(x, FS).trace["beta"]
+
+    quick, late = beta(beta_fast_frames=1e9), beta(beta_fast_frames=0.0)
+    t = np.arange(quick.shape[0])[:, None]
+    formula = quick + np.clip((t - 31) / 10, 0.0, 1.0) * (late - quick)
+    np.testing.assert_allclose(beta(beta_fast_frames=10.0, fast_blend=True), formula, rtol=0, atol=1e-12)
+    assert np.abs(beta(beta_fast_frames=10.0) - formula).max() > 0.01
+
+
 def test_delayed_beta_streams_as_one_pass():
     """Blocks of 1, 7, 160 and 999 samples give the one-pass output with the delayed beta and the start-up
     stand-ins, lagged by ``fast_ahead_s`` (the pending cardioids, the frames seen and every accumulator are
@@ -487,7 +525,8 @@ def test_delayed_beta_streams_as_one_pass():
                                        ("eb-robust", {**FRAME_BETA, "beta_lam": 1.0}),
                                        ("eb-robust", {**FRAME_BETA, "beta_fast_frames": -1.0}),
                                        ("eb-robust", {**FRAME_BETA, "fast_ahead_s": 0.5}),
-                                       ("eb-robust", {**FRAME_BETA, "mix_fast_ramp_cells": -1.0})])
+                                       ("eb-robust", {**FRAME_BETA, "mix_fast_ramp_cells": -1.0}),
+                                       ("eb-robust", {**FRAME_BETA, "fast_blend": "yes"})])
 def test_delayed_beta_parameters_are_checked(name, bad):
     """The delayed beta learns where eb-robust's talker-blind calibration does: without it (or with a bad
     average factor, stand-in length, or a stand-in look ahead beyond the calibration's) it is a one-line
