@@ -699,6 +699,21 @@ def test_frame_snr_share_closed_form():
         np.testing.assert_allclose(state, [ratio, 5, 1.0, 5], rtol=0, atol=1e-12)
 
 
+def test_frame_snr_share_grows_with_the_rarer_kind_of_frame():
+    """``frame_snr_frames = 4``: the share goes from 1 to the estimate's value linearly in the count of the rarer
+    kind of frame.  Closed form: 6 noise frames, then talker frames at 10x (estimate 2/3): at the k-th talker
+    frame the share is ``1 - (1/3) min(1, k / 4)`` -- 11/12, 5/6, 3/4, then 2/3 -- where without the option it
+    is 2/3 from the first."""
+    from enhancers.mic_calibration import _frame_snr_share
+
+    p = make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0), frame_snr_frames=4.0).params
+    talker = np.array([False] * 6 + [True] * 6)
+    kappa, _ = _frame_snr_share(talker, np.where(talker, 10.0, 1.0), None, p, fs=FS)
+    k = np.arange(1, 7)
+    np.testing.assert_allclose(kappa[6:], 1 - np.minimum(1, k / 4) / 3, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(kappa[:6], 1.0)
+
+
 def _learn_weights(x, **params):
     """``mix_model="delayed"``'s held weights of the calibration inside ``eb-robust`` over ``x``, ``(F, K)``."""
     import enhancers.robust_eb as rb
@@ -895,7 +910,8 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
 
 
 @pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0},
-                                 {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1}])
+                                 {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1},
+                                 {"frame_snr_frames": -1.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
