@@ -74,7 +74,7 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False)
+                    frame_delayed=False, frame_smooth=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
@@ -88,9 +88,10 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
 
 def test_frame_settings_are_combined_with_the_frame_rule():
-    """``--frame`` / ``--frame-lowsnr`` / ``--frame-delayed``: :data:`FRAME` (:data:`COMBINED` with the frame rule
-    and the delayed DAS weight), :data:`FRAME_LOWSNR` or :data:`FRAME_DELAYED` (that with beta learned late: only
-    the beta, freeze and stand-in fields change, the rest is added) for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
+    """``--frame`` / ``--frame-lowsnr`` / ``--frame-delayed`` / ``--frame-smooth``: :data:`FRAME` (:data:`COMBINED`
+    with the frame rule and the delayed DAS weight), :data:`FRAME_LOWSNR`, :data:`FRAME_DELAYED` (that with beta
+    learned late: only the beta, freeze and stand-in fields change, the rest is added) or :data:`FRAME_SMOOTH`
+    (that with fields added and the SNR share's range moved) for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
     winning; both valid ``eb-robust`` parameter sets."""
     import argparse
 
@@ -100,13 +101,14 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         FRAME,
         FRAME_DELAYED,
         FRAME_LOWSNR,
+        FRAME_SMOOTH,
         mode_params,
     )
     from enhancers.registry import make
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False)
+                    frame_delayed=False, frame_smooth=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
@@ -122,7 +124,11 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         "beta_model", "beam_freeze", "mix_fast_cells", "mix_ramp_cells")} == {k: v for k, v in FRAME_LOWSNR.items()
                                                                               if k not in ("beta_model", "beam_freeze",
                                                                                            "mix_fast_cells", "mix_ramp_cells")}
-    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED):
+    over, ss = mode_params(args(frame_smooth=True, set=["frame_start_s=0.1"]))
+    assert over == {**FRAME_SMOOTH, "frame_start_s": 0.1} and ss == COMBINED_SS
+    assert {k: v for k, v in FRAME_SMOOTH.items() if k in FRAME_DELAYED and k != "frame_snr_db"} == \
+        {k: v for k, v in FRAME_DELAYED.items() if k != "frame_snr_db"}  # adds fields, moves the share's range
+    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH):
         make("eb-robust", **params)
 
 

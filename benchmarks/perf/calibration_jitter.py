@@ -1,7 +1,8 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind | --direction] [--pooled | --combined | --frame | --frame-lowsnr | --frame-delayed] [--set KEY=JSON ...]
+        [--noises babble ...] [--blind | --direction]
+        [--pooled | --combined | --frame | --frame-lowsnr | --frame-delayed | --frame-smooth] [--set KEY=JSON ...]
         [--save-baseline FILE] [--baseline FILE]
         [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
 
@@ -25,7 +26,9 @@ forward/backward cardioid ratio of the calibrated pair per bin, no level rule) i
 ``--combined``: every talker-blind piece together (:data:`COMBINED`, :data:`COMBINED_SS`; measured there).
 ``--frame``: :data:`COMBINED` with the frame rule and the delayed DAS weight (:data:`FRAME`);
 ``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`);
-``--frame-delayed``: that with beta learned late too (:data:`FRAME_DELAYED`).
+``--frame-delayed``: that with beta learned late too (:data:`FRAME_DELAYED`);
+``--frame-smooth``: that with every decision that differed between the two runs made continuous or left
+out (:data:`FRAME_SMOOTH`).
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
@@ -144,6 +147,15 @@ FRAME_LOWSNR = {**FRAME, "frame_snr_db": (6.0, 12.0), "mix_fast_cells": 2000.0, 
 FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", "beta_fast_frames": 10.0,
                  "mix_fast_cells": 500.0, "mix_ramp_cells": 200.0, "cal_rear_db": 10.0, "frame_low_hz": 250.0,
                  "frame_level_db": 20.0}
+# the same with the decisions that differed between the runs on s + n and s - n made continuous or left out
+# (issue 16, seventh round): the rear rule's threshold follows the SNR share (cal_rear_db at high input SNR,
+# cal_rear_low_db=6 at low: issue 12's 240 deg mismatch), the frame rule's decisions in the first 0.05 s are
+# not trusted (frame_start_s: a recording's start transient), the stand-ins hand over to the delayed estimates
+# linearly (fast_blend), the SNR share grows with the frames it has seen (frame_snr_frames=40) and takes the
+# noise's power from the held-quiet frames (frame_snr_quiet: a reverberant talker's unmarked frames), over a
+# range 2 dB higher (frame_snr_db=(8, 14): that estimate is higher; issue 12's 135 deg mismatch)
+FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, "fast_blend": True,
+                "frame_snr_frames": 40.0, "frame_snr_quiet": True, "frame_snr_db": (8.0, 14.0)}
 
 
 def _params(blind, overrides=None) -> dict:
@@ -357,7 +369,8 @@ def mode_params(args) -> tuple[dict, dict]:
     """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
     (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
     overrides, ss = parse_set(args.set), _key_json(args.ss, "--ss")
-    frame = FRAME_DELAYED if args.frame_delayed else FRAME_LOWSNR if args.frame_lowsnr else FRAME if args.frame else {}
+    frame = (FRAME_SMOOTH if args.frame_smooth else FRAME_DELAYED if args.frame_delayed else FRAME_LOWSNR
+             if args.frame_lowsnr else FRAME if args.frame else {})
     named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
              **(COMBINED if args.combined else {}), **frame}
     return {**named, **overrides}, {**(COMBINED_SS if args.combined or frame else {}), **ss}
@@ -379,6 +392,8 @@ def main(argv=None) -> int:
                     help="FRAME learning during speech at low input SNR, with a fast start and beta per bin (FRAME_LOWSNR)")
     ap.add_argument("--frame-delayed", action="store_true",
                     help="FRAME_LOWSNR with beta learned late too, the low band and level rules (FRAME_DELAYED)")
+    ap.add_argument("--frame-smooth", action="store_true",
+                    help="FRAME_DELAYED with the decisions that differed between the runs made continuous (FRAME_SMOOTH)")
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
