@@ -911,7 +911,8 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
 
 @pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0},
                                  {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1},
-                                 {"frame_snr_frames": -1.0}])
+                                 {"frame_snr_frames": -1.0}, {"frame_snr_quiet_ratio": 1},
+                                 {"frame_snr_low_hz": 1000.0}, {"frame_snr_low_hz": -1.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
@@ -958,6 +959,46 @@ def test_frame_snr_share_on_quiet_frames_closed_form():
     kappa, state = _frame_snr_share(talker, power, None, p, fs=FS, quiet=quiet, quiet_power=power)
     np.testing.assert_allclose(kappa[-1], 2.0 / 3.0, rtol=0, atol=1e-12)
     np.testing.assert_allclose(state, [10.0, 5, 1.0, 5], rtol=0, atol=1e-12)
+
+
+def _snr_noise_average(x, **params):
+    """The input-SNR estimate's noise average (state ``snr[2]``) of the frame rule over ``x`` in one pass."""
+    from enhancers.mic_calibration import _frame_weights, calibration_init
+
+    e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), frame_snr_quiet=True, **params)
+    X = e.filterbank.analyze(x)
+    changes = {}
+    _frame_weights(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=e.delay_samples(FS),
+                   n_ahead=30, changes=changes)
+    return changes["snr"][2]
+
+
+def test_frame_snr_quiet_ratio_counts_a_machines_hits_as_noise():
+    """``frame_snr_quiet_ratio``: the noise's frames are those away from the ratio rule's talker frames, so a
+    machine's hits (here the diffuse noise 20 dB up for 0.1 s at 2.2, 4.2 and 5.2 s: cardioid ratio 0 dB, far
+    over the level rule's 15 dB) count as noise.  Closed form: 0.3 s at 100x in 6 s raise the noise's mean power
+    5.95x.  The level rule's quiet frames leave the hits out: within 2 % of the same estimate without the hits
+    (measured 0.1 %); away from the ratio rule's talker frames they are in: at least 5x that (measured 8.7x:
+    the one-pole average weighs the last hit more than an even mean would)."""
+    s, n = _talker_bursts(38)
+    t = np.arange(n.shape[1]) / FS
+    hits = ((t >= 2.2) & (t < 2.3)) | ((t >= 4.2) & (t < 4.3)) | ((t >= 5.2) & (t < 5.3))
+    level = dict(frame_level_db=15.0)
+    no_hits = _snr_noise_average(s + n, **level)
+    n = n * np.where(hits, 10.0, 1.0)
+    with_level = _snr_noise_average(s + n, **level)
+    with_ratio = _snr_noise_average(s + n, **level, frame_snr_quiet_ratio=True)
+    assert abs(with_level / no_hits - 1.0) <= 0.02 and with_ratio / no_hits >= 5.0
+
+
+def test_frame_snr_low_hz_widens_the_estimates_band():
+    """``frame_snr_low_hz = 250``: the input-SNR estimate's powers run over 250 Hz-4 kHz (bins 4-64) instead of
+    ``frame_band_hz`` (1-4 kHz, bins 16-64).  Closed form for white diffuse noise (a flat spectrum): the noise
+    average grows by the bin count, 61 / 49, within 1 % (measured 0.08 %: the two bands share 49 of their bins,
+    and the 12 more average ~375 frames)."""
+    n = diffuse_noise(6 * FS, SPACING_M, fs=FS, rng=np.random.default_rng(39))
+    ratio = _snr_noise_average(n, frame_snr_low_hz=250.0) / _snr_noise_average(n)
+    assert abs(ratio / (61 / 49) - 1.0) <= 0.01
 
 
 def test_frame_snr_quiet_measures_the_noise_alone():
