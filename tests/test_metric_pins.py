@@ -12,6 +12,14 @@ Two kinds of check, because they mean different things:
   drift: numpy/scipy 2.x moved the swapped pair's STOI by 4.2e-4 and wide-band PESQ by 1e-5,
   which is why these are not the argument-order check.  If the voice or the versions change
   on purpose, recompute the pins (and say so in the commit).
+* **Not pinned: the swapped pair's STOI and ESTOI.**  With the clean voice as the *degraded*
+  signal, some 1/3-octave bands of some 30-frame segments hold only the FFT's rounding noise
+  (the artificial voice is silent there); pystoi's clipping scales them by ``|x| / (|y| + eps)``
+  and their correlation is then that noise's.  So the score depends on the last bits of the
+  FFT, which differ between CPUs at the same package versions: 0.849796 on one machine,
+  0.850212 on another (2 December 2026, every package at ``PINNED_AT``), and a 1e-15 relative
+  perturbation of the clean voice moves it by up to 1.5e-3 (:func:`test_which_scores_are_well_conditioned`).
+  The unswapped pair's STOI does not move at 1e-12; its pins stay.
 * **Argument order** (issue 11's surviving mutation: reference and degraded swapped) is
   checked at whatever versions are installed, against the libraries called directly in
   their documented order ``pesq(fs, ref, deg, mode)`` / ``stoi(clean, denoised, fs)``, and
@@ -33,7 +41,7 @@ from data_recipes.artificial_voice import artificial_voice
 FS = 16000
 PINNED_AT = {"pesq": "0.0.4", "pystoi": "0.4.1", "numpy": "2.4.6", "scipy": "1.17.1"}
 PINS = {"nb": 1.6660494804382324, "wb": 1.0864700078964233, "stoi": 0.9848673486428187, "estoi": 0.9558747558506938}
-SWAPPED = {"nb": 1.4334584474563599, "wb": 1.0808565616607666, "stoi": 0.8497960192705581, "estoi": 0.7025043558165743}
+SWAPPED = {"nb": 1.4334584474563599, "wb": 1.0808565616607666}  # STOI / ESTOI: ill-conditioned, see above
 TOL = 1e-4
 SWAP_MARGIN = 0.1  # nb PESQ, STOI, ESTOI: the swap moves them by 0.23, 0.13, 0.25
 
@@ -78,8 +86,28 @@ def test_score_of_the_generated_pair_is_pinned(scores, key):
 
 @needs_pinned_versions
 def test_swapped_call_really_gives_the_swapped_scores(swapped_scores):
-    for key in PINS:
+    for key in SWAPPED:
         assert swapped_scores[key] == pytest.approx(SWAPPED[key], abs=TOL)
+
+
+def test_which_scores_are_well_conditioned(pair):
+    """Why the swapped pair's STOI is not pinned: white noise 1e-12 of the degraded signal's RMS (seeded) leaves
+    the pair's STOI and ESTOI within 1e-9 (measured <= 9e-14: no band is rounding noise), while 1e-15 of the
+    clean voice's RMS, as the swapped call's degraded signal, moves its STOI or ESTOI by more than 1e-4 in every
+    one of four draws (measured 5.8e-4 to 1.5e-3, the size of the drift between machines)."""
+    reference, degraded = pair
+    rng = np.random.default_rng(7)
+
+    def moved(ref, deg, rel):
+        base = stoi_scores(ref, deg, fs=FS)
+        out = []
+        for _ in range(4):
+            nudged = stoi_scores(ref, deg + rel * np.std(deg) * rng.standard_normal(deg.size), fs=FS)
+            out.append(max(abs(nudged[k] - base[k]) for k in ("stoi", "estoi")))
+        return np.array(out)
+
+    assert moved(reference, degraded, 1e-12).max() <= 1e-9
+    assert moved(degraded, reference, 1e-15).min() > 1e-4
 
 
 @pytest.mark.parametrize("mode", ["nb", "wb"])
