@@ -152,10 +152,12 @@ FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", 
 # cal_rear_low_db=6 at low: issue 12's 240 deg mismatch), the frame rule's decisions in the first 0.05 s are
 # not trusted (frame_start_s: a recording's start transient), the stand-ins hand over to the delayed estimates
 # linearly (fast_blend), the SNR share grows with the frames it has seen (frame_snr_frames=40) and takes the
-# noise's power from the held-quiet frames (frame_snr_quiet: a reverberant talker's unmarked frames), over a
-# range 2 dB higher (frame_snr_db=(8, 14): that estimate is higher; issue 12's 135 deg mismatch)
+# noise's power from the frames away from the ratio rule's talker frames (frame_snr_quiet, frame_snr_quiet_ratio:
+# a reverberant talker's unmarked frames are not noise, a machine's hits are), over 250 Hz-4 kHz
+# (frame_snr_low_hz: the talker's band) and a range 2 dB higher (frame_snr_db=(8, 14); issue 12's 135 deg)
 FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, "fast_blend": True,
-                "frame_snr_frames": 40.0, "frame_snr_quiet": True, "frame_snr_db": (8.0, 14.0)}
+                "frame_snr_frames": 40.0, "frame_snr_quiet": True, "frame_snr_quiet_ratio": True,
+                "frame_snr_low_hz": 250.0, "frame_snr_db": (8.0, 14.0)}
 
 
 def _params(blind, overrides=None) -> dict:
