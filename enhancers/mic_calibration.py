@@ -511,8 +511,9 @@ class CalibrationParams(StftParams):
             check_range("frame_level_db", self.frame_level_db, 0.0, 60.0, lo_open=True)
         check_range("frame_start_s", self.frame_start_s, 0.0, 10.0)
         check_range("frame_snr_frames", self.frame_snr_frames, 0.0, 1e6)
-        if not isinstance(self.frame_snr_quiet_ratio, bool):
-            raise ParameterError("frame_snr_quiet_ratio", self.frame_snr_quiet_ratio, "True or False")
+        if not isinstance(self.frame_snr_quiet_ratio, bool) or (self.frame_snr_quiet_ratio and not self.frame_snr_quiet):
+            raise ParameterError("frame_snr_quiet_ratio", self.frame_snr_quiet_ratio,
+                                 "True or False (True only with frame_snr_quiet=True: it picks that estimate's frames)")
         if self.frame_snr_low_hz is not None:
             check_range("frame_snr_low_hz", self.frame_snr_low_hz, 0.0, float(self.frame_band_hz[0]), hi_open=True)
         if self.frame_low_hz is not None:
@@ -621,9 +622,9 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
         changes["p_tail"] = seq_p[len(w):]
         quiet_power = seq_p[:len(w)]
         quiet_frames = (held >= 1.0) & ~np.isnan(quiet_power)  # NaN: the stream start's placeholders
-        if p.frame_snr_quiet_ratio:  # quiet: away from the ratio rule's talker frames; a machine's hit, which
-            t_seq = np.concatenate([state.t_tail if state.t_tail is not None  # the level rule stops, is noise
-                                    else np.zeros(n_hang + n_ahead, dtype=bool), talker])
+        if p.frame_snr_quiet_ratio:  # quiet: away from the ratio rule's talker frames (a machine's hit is noise)
+            t_tail = state.t_tail if state.t_tail is not None else np.zeros(n_hang + n_ahead, dtype=bool)
+            t_seq = np.concatenate([t_tail, talker])
             changes["t_tail"] = t_seq[len(w):]
             near = np.lib.stride_tricks.sliding_window_view(t_seq, n_hang + n_ahead + 1).max(axis=1)[:len(w)]
             quiet_frames = ~near & ~np.isnan(quiet_power)

@@ -912,6 +912,7 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
 @pytest.mark.parametrize("bad", [{"frame_low_hz": 1000.0}, {"frame_low_hz": -5.0}, {"frame_level_db": 0.0},
                                  {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1},
                                  {"frame_snr_frames": -1.0}, {"frame_snr_quiet_ratio": 1},
+                                 {"frame_snr_quiet_ratio": True},
                                  {"frame_snr_low_hz": 1000.0}, {"frame_snr_low_hz": -1.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
