@@ -966,7 +966,7 @@ def _snr_noise_average(x, **params):
     """The input-SNR estimate's noise average (state ``snr[2]``) of the frame rule over ``x`` in one pass."""
     from enhancers.mic_calibration import _frame_weights, calibration_init
 
-    e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), frame_snr_quiet=True, **params)
+    e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), **params)
     X = e.filterbank.analyze(x)
     changes = {}
     _frame_weights(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=e.delay_samples(FS),
@@ -984,7 +984,7 @@ def test_frame_snr_quiet_ratio_counts_a_machines_hits_as_noise():
     s, n = _talker_bursts(38)
     t = np.arange(n.shape[1]) / FS
     hits = ((t >= 2.2) & (t < 2.3)) | ((t >= 4.2) & (t < 4.3)) | ((t >= 5.2) & (t < 5.3))
-    level = dict(frame_level_db=15.0)
+    level = dict(frame_level_db=15.0, frame_snr_quiet=True)
     no_hits = _snr_noise_average(s + n, **level)
     n = n * np.where(hits, 10.0, 1.0)
     with_level = _snr_noise_average(s + n, **level)
@@ -998,7 +998,8 @@ def test_frame_snr_low_hz_widens_the_estimates_band():
     average grows by the bin count, 61 / 49, within 1 % (measured 0.08 %: the two bands share 49 of their bins,
     and the 12 more average ~375 frames)."""
     n = diffuse_noise(6 * FS, SPACING_M, fs=FS, rng=np.random.default_rng(39))
-    ratio = _snr_noise_average(n, frame_snr_low_hz=250.0) / _snr_noise_average(n)
+    ratio = (_snr_noise_average(n, frame_snr_quiet=True, frame_snr_low_hz=250.0)
+             / _snr_noise_average(n, frame_snr_quiet=True))
     assert abs(ratio / (61 / 49) - 1.0) <= 0.01
 
 
@@ -1009,17 +1010,7 @@ def test_frame_snr_quiet_measures_the_noise_alone():
     frames: a frame's band power over 49 bins spreads by ~14 %, over the one-pole's ~375 frames by ~0.7 %,
     so 2 % is about 3 of that).  Over every frame the ratio does not mark -- the bursts' quiet edges among them --
     it is >= 5 % high (measured 8 %)."""
-    from enhancers.mic_calibration import _frame_weights, calibration_init
-
-    def noise_average(x, **params):
-        e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), **params)
-        X = e.filterbank.analyze(x)
-        changes = {}
-        _frame_weights(X[0], X[1], calibration_init(X.shape[2]), e.params, fs=FS, delay=e.delay_samples(FS),
-                       n_ahead=30, changes=changes)
-        return changes["snr"][2]
-
     s, n = _talker_bursts(36)
-    alone = noise_average(n)
-    assert abs(noise_average(s + n, frame_snr_quiet=True) / alone - 1.0) <= 0.02
-    assert noise_average(s + n) / alone >= 1.05
+    alone = _snr_noise_average(n)
+    assert abs(_snr_noise_average(s + n, frame_snr_quiet=True) / alone - 1.0) <= 0.02
+    assert _snr_noise_average(s + n) / alone >= 1.05
