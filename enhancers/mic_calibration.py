@@ -442,6 +442,9 @@ class CalibrationParams(StftParams):
     frame_snr_low_hz: float | None = None
     frame_snr_quiet_ratio: bool = False
     frame_snr_quiet: bool = False
+    frame_snr_clip_db: float | None = None
+    frame_hold_taper_s: float = 0.0
+    cal_rear_soft_db: float = 0.0
 
     @property
     def talker_blind(self) -> bool:
@@ -518,6 +521,14 @@ class CalibrationParams(StftParams):
         if not isinstance(self.frame_snr_quiet_ratio, bool) or (self.frame_snr_quiet_ratio and not self.frame_snr_quiet):
             raise ParameterError("frame_snr_quiet_ratio", self.frame_snr_quiet_ratio,
                                  "True or False (True only with frame_snr_quiet=True: it picks that estimate's frames)")
+        if self.frame_snr_clip_db is not None:
+            check_range("frame_snr_clip_db", self.frame_snr_clip_db, 0.0, 60.0, lo_open=True)
+        # the taper's last frames lie inside the look ahead (rounding to frames keeps the order)
+        check_range("cal_rear_soft_db", self.cal_rear_soft_db, 0.0, 60.0)
+        if self.cal_rear_soft_db > 0 and (self.cal_rear_db is None or self.frame_q_db is None):
+            raise ParameterError("cal_rear_soft_db", self.cal_rear_soft_db,
+                                 "0 unless cal_rear_db and frame_q_db are set (it grades the rear rule's weights)")
+        check_range("frame_hold_taper_s", self.frame_hold_taper_s, 0.0, float(self.level_ahead_s))
         if self.frame_snr_low_hz is not None:
             check_range("frame_snr_low_hz", self.frame_snr_low_hz, 0.0, float(self.frame_band_hz[0]), hi_open=True)
         if self.frame_low_hz is not None:
@@ -605,13 +616,14 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     # and that one frame decided the start-up DAS weight of the whole file)
     judged = (state.n_frames + np.arange(len(w))) >= int(round(float(p.frame_start_s) * fs / int(p.hop)))
     w, talker = np.where(judged, w, 1.0), talker & judged
-    tail = state.w_tail if state.w_tail is not None else np.ones(n_hang + n_ahead)  # the stream start: no hold
+    n_taper = int(round(float(p.frame_hold_taper_s) * fs / int(p.hop)))
+    tail = state.w_tail if state.w_tail is not None else np.ones(n_taper + n_hang + n_ahead)  # the start: no hold
     seq = np.concatenate([tail, w])
     changes["w_tail"] = seq[len(w):]
-    held = np.lib.stride_tricks.sliding_window_view(seq, n_hang + n_ahead + 1).min(axis=1)[:len(w)]
+    held = _held(seq, n_hang, n_ahead, n_taper)[:len(w)]
     # the block's frames the rule heard the talker in or in the hold after (no look ahead: for beta, which
     # cannot wait; beam_freeze="level")
-    talking = np.lib.stride_tricks.sliding_window_view(seq[n_ahead:], n_hang + 1).min(axis=1)[:len(w)] < 1.0
+    talking = np.lib.stride_tricks.sliding_window_view(seq[n_taper + n_ahead:], n_hang + 1).min(axis=1)[:len(w)] < 1.0
     # the block's own frames until the talker is first heard (a stream starts on the noise: what the DAS weight
     # may learn at once, mix_fast_cells); nothing after
     quiet = ~np.logical_or.accumulate(w < 1.0) & (not state.heard)
@@ -637,8 +649,35 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     return held, kappa, now, talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
 
 
+def _held(seq: np.ndarray, n_hang: int, n_ahead: int, n_taper: int) -> np.ndarray:
+    """Each frame's held weight: the minimum of ``seq``'s weights from ``n_hang`` frames before it to ``n_ahead``
+    after it, where ``seq (R + H + D + F - 1,)`` starts ``R + H`` frames before the first frame (``R = n_taper``).
+
+    ``n_taper = R > 0`` (``frame_hold_taper_s``): the hold's edges taper -- a frame ``R`` more before it and
+    the last ``R`` of the ``n_ahead`` after it count with ``c = 1 / (R + 1) ... R / (R + 1)``, rising towards
+    the core, as ``1 - c (1 - w)``.  Why: a talker's onset or end heard one frame apart in the runs on ``s +
+    n`` and ``s - n`` moved a hard edge over a whole noise frame, learned in one run only; tapered, it moves
+    the frame's weight by ``1 / (R + 1)``.
+
+    >>> w = np.array([1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0])
+    >>> _held(w, 0, 2, 0).tolist()  # a hard hold: the two frames before the talker's frame
+    [1.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    >>> w = np.array([1.0] * 6 + [0.0] + [1.0] * 5)  # tapered by 2: the frames 2..8, the talker at 6
+    >>> np.round(_held(w, 0, 3, 2), 3).tolist()  # 1 frame of core ahead, then 2/3 and 1/3; behind 2/3, 1/3
+    [1.0, 0.667, 0.333, 0.0, 0.0, 0.333, 0.667]
+    """
+    if n_taper == 0:
+        return np.lib.stride_tricks.sliding_window_view(seq, n_hang + n_ahead + 1).min(axis=1)
+    c = np.concatenate([np.arange(1, n_taper + 1) / (n_taper + 1), np.ones(n_hang + 1 + n_ahead - n_taper),
+                        np.arange(n_taper, 0, -1) / (n_taper + 1)])  # (the parameter check keeps R <= D)
+    win = np.lib.stride_tricks.sliding_window_view(seq, len(c))
+    return (1.0 - c * (1.0 - win)).min(axis=1)
+
+
 #: time constant (s) of the frame rule's input-SNR estimate (frame_snr_db): a few utterances
 SNR_TAU_S = 3.0
+#: frame_snr_clip_db: the noise frames the average must have before it judges a frame far above it
+SNR_CLIP_MIN = 3
 
 
 def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet=None, quiet_power=None):
@@ -674,6 +713,7 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet
     one_pole = 1.0 - math.exp(-int(p.hop) / (fs * SNR_TAU_S))
     lo, hi = (float(v) for v in p.frame_snr_db)
     n_full = float(p.frame_snr_frames)
+    clip = None if p.frame_snr_clip_db is None else 10.0 ** (float(p.frame_snr_clip_db) / 10.0)
     kappa = np.ones(len(power))
     for i in range(len(power)):  # a few scalars per frame
         updates = [(0, power[i])] if talker[i] else []
@@ -682,6 +722,8 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet
         elif quiet[i]:
             updates.append((2, quiet_power[i]))
         for j, pw in updates:
+            if j == 2 and clip is not None and state[3] >= SNR_CLIP_MIN and pw > clip * state[2]:
+                continue  # frame_snr_clip_db: far above the noise's average, not noise (a talker the ratio missed)
             state[j + 1] += 1.0
             state[j] += max(1.0 / state[j + 1], one_pole) * (pw - state[j])
         if state[1] > 0 and state[3] > 0:
@@ -1054,13 +1096,40 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
     changes = {}
     if p.cal_frontal_db is not None:
         fires, changes["q_cal"] = power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db), **rule)
-    if p.cal_rear_db is not None:
+    if p.cal_rear_db is not None and p.cal_rear_soft_db > 0:  # graded: the smoothed ratio itself (dB), as the gate
+        q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
+        sb, sf = smooth_frames(pB, rule["lam"], q.pf), smooth_frames(pF, rule["lam"], q.pb)
+        rear = 10.0 * np.log10((sb + TINY) / (sf + TINY))
+        changes["q_rear"] = GateState(pf=sb[-1].copy(), pb=sf[-1].copy()) if len(rear) else q
+    elif p.cal_rear_db is not None:
         q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
         rear, changes["q_rear"] = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_db), **rule)
         if p.cal_rear_low_db is not None:  # 2: over cal_rear_db, 1: over cal_rear_low_db only (same smoothing)
             low, _ = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_low_db), **rule)
             rear = rear.astype(np.uint8) + low
     return fires, rear, changes
+
+
+def _rear_weight(ratio_db: np.ndarray, kappa, p: CalibrationParams) -> np.ndarray:
+    """``cal_rear_soft_db = g > 0``: the rear rule's weight of each cell ``(F, K)`` from its smoothed ``P_B / P_F``
+    (dB): a ramp from 0 at ``cal_rear_db`` to 1 at ``cal_rear_db + g``; with ``cal_rear_low_db`` the larger of
+    that and ``1 - kappa (F,)`` (the SNR share) where the ratio is over the low threshold (hard: the share
+    grades it).  Why graded: ``P_F`` holds the talker, and near a hard threshold the talker x noise cross
+    term in it decided whether a cell was learned -- in one of Hagerman's runs only (measured on ``phone``'s
+    factory at 20-25 dB, ``../shared/data``: weights 0.6-0.7 in one run, 0.1 in the other, at -13..-25 dB
+    local SNR).  The ramp starts at the threshold, not below it: a lower ratio lets more of the talker in
+    (centred on the threshold, the worst of those rows was -29.5 dB with g = 4 and -22.6 dB with g = 8).
+
+    >>> import enhancers
+    >>> p = enhancers.make("mic-calibration", frame_q_db=5.0, frame_snr_db=(8.0, 14.0), cal_rear_db=10.0,
+    ...                    cal_rear_low_db=6.0, cal_rear_soft_db=4.0).params
+    >>> _rear_weight(np.array([[5.0, 7.0, 10.0, 11.0, 13.0, 15.0]]), np.array([0.75]), p).tolist()
+    [[0.0, 0.25, 0.25, 0.25, 0.75, 1.0]]
+    """
+    w = np.clip((ratio_db - float(p.cal_rear_db)) / float(p.cal_rear_soft_db), 0.0, 1.0)
+    if p.cal_rear_low_db is None or kappa is None:
+        return w
+    return np.maximum(w, (ratio_db > float(p.cal_rear_low_db)) * (1.0 - kappa[:, None]))
 
 
 def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None,
@@ -1104,7 +1173,11 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
                      else np.zeros((n_ahead, rear.shape[1]), dtype=rear.dtype))
         rears = np.concatenate([pend_rear, rear])
         rear_now = rears[:F]
-        learn_frozen = learn_frozen & ~(rear_now > 0)
+        if p.cal_rear_soft_db > 0:  # graded: the ratio in dB; over the lowest threshold, as a level >= 1 below
+            over = rear_now > float(p.cal_rear_db if p.cal_rear_low_db is None else p.cal_rear_low_db)
+        else:
+            over = rear_now > 0
+        learn_frozen = learn_frozen & ~over
         changes["pend_rear"] = rears[F:]
     changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
@@ -1122,7 +1195,9 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         else:  # frame_snr_db: from the cardioid rules' cells at low input SNR to the frame rule's at high
             real = (state.n_frames + np.arange(F)) >= n_ahead  # not the stream start's placeholders
             wt = kappa[:, None] * (real * frame_w)[:, None] + (1.0 - kappa[:, None]) * active
-        if rear_now is not None and p.cal_rear_low_db is not None:  # the low threshold counts as the share
+        if rear_now is not None and p.cal_rear_soft_db > 0:  # graded: 0 at a threshold, 1 cal_rear_soft_db over it
+            wt = np.maximum(wt, _rear_weight(rear_now, kappa, p))
+        elif rear_now is not None and p.cal_rear_low_db is not None:  # the low threshold counts as the share
             wt = np.maximum(wt, np.where(rear_now >= 2, 1.0, (rear_now == 1) * (1.0 - kappa[:, None])))  # falls
         elif rear_now is not None:  # a rear-dominated cell is learned in a talker's frame too
             wt = np.maximum(wt, rear_now)

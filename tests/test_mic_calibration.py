@@ -781,6 +781,91 @@ def test_blocks_match_one_pass_with_the_rear_low_threshold():
     _assert_blocks_match_one_pass(e, _rear_scene(37)[:, : 3 * FS], (1, 6, 43))
 
 
+def test_graded_rear_rule_tends_to_the_hard_one():
+    """``cal_rear_soft_db = g``: a ramp from ``cal_rear_db`` to ``cal_rear_db + g``, the low threshold hard and
+    weighted by ``1 - share``.  Oracle: the hard rule (a slow reference of the same arithmetic) -- with
+    ``g = 1e-9`` the held weights equal the hard rule's at mixed shares (``frame_snr_db=(6, 12)``), with both
+    thresholds and with ``cal_rear_db`` alone, to 1e-12 (a cell's smoothed ratio within 1e-9 dB of 10 dB
+    is the only way to differ).  Control: ``g = 3`` differs (measured: mean |difference| of the weights 0.0056 with both
+    thresholds, 0.0074 with ``cal_rear_db`` alone),
+    so each equality can fail."""
+    x = _rear_scene(41)
+    for low in ({"cal_rear_low_db": 6.0}, {}):
+        rule = dict(FRAME_RULE, cal_rear_db=10.0, frame_snr_db=(6.0, 12.0), **low)
+        hard = _learn_weights(x, **rule)
+        np.testing.assert_allclose(_learn_weights(x, **rule, cal_rear_soft_db=1e-9), hard, rtol=0, atol=1e-12)
+        soft = _learn_weights(x, **rule, cal_rear_soft_db=3.0)
+        assert np.abs(soft - hard).mean() > 0.003
+
+
+def test_blocks_match_one_pass_with_the_graded_edges():
+    """Streaming (blocks of 1, 6, 43 and the rest) == one pass with the hold's taper, the graded rear rule and the
+    SNR share's clip (``FRAME_TAPER``'s pieces: the longer weight tail, the pending ratios in dB and the
+    share's state are carried).  Oracle: the same computation, to 1e-12 (and masks exactly)."""
+    e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), cal_rear_db=10.0, cal_rear_low_db=6.0,
+             cal_rear_soft_db=3.0, frame_hold_taper_s=0.05, frame_snr_quiet=True, frame_snr_quiet_ratio=True,
+             frame_snr_clip_db=15.0)
+    _assert_blocks_match_one_pass(e, _rear_scene(42)[:, : 3 * FS], (1, 6, 43))
+
+
+def test_hold_taper_moves_an_onset_by_one_frame_weight():
+    """``frame_hold_taper_s`` (``R`` frames): a talker heard one frame later changes no held weight by more than
+    ``1 / (R + 1)``; the hard hold (``R = 0``) changes a whole frame's, by 1 (closed form of the taper: the
+    weight of a frame ``k`` frames inside the taper is ``k / (R + 1)``).  Both ends: an onset and an end."""
+    from enhancers.mic_calibration import _held
+
+    for R in (0, 3, 6):
+        w1 = np.ones(120)
+        w1[40:60] = 0.0
+        w2 = np.ones(120)
+        w2[41:61] = 0.0
+        d = np.abs(_held(w1, 25, 30, R) - _held(w2, 25, 30, R)).max()
+        np.testing.assert_allclose(d, 1.0 / (R + 1), rtol=0, atol=1e-12)
+
+
+def test_hold_taper_keeps_the_hold_in_place(monkeypatch):
+    """The stream's held weights with the taper (``R`` = 6 frames of ``frame_hold_taper_s=0.05``, ``H`` = 25,
+    ``D`` = 30): for a talker the rule hears in frames ``a..b`` only, 0 over ``a - (D - R) .. b + H``, and
+    ``k / (R + 1)`` at the ``k``-th frame outside that, on either side, up to ``R`` (closed form; the held
+    weights run ``D`` frames behind the block's).  Without the taper: 0 over ``a - D .. b + H``.  Oracle for
+    the tail's length at the stream start and the window's alignment (a tail ``R`` frames too long shifts
+    every held weight by ``R`` frames)."""
+    import enhancers.mic_calibration as mc
+
+    a, b, F = 100, 120, 260
+    w = np.ones(F)
+    w[a:b + 1] = 0.0
+    monkeypatch.setattr(mc, "_frame_rule", lambda X1, X2, state, p, **k: (w, None, w < 1, np.ones(F)))
+    X = np.zeros((F, 129), dtype=complex)
+    for R, taper in ((0, 0.0), (6, 0.05)):
+        p = make("mic-calibration", **FRAME_RULE, frame_hold_taper_s=taper).params
+        held = mc._frame_weights(X, X, mc.calibration_init(129), p, fs=FS, delay=1.0, n_ahead=30, changes={})[0]
+        expect = np.ones(F)  # frame j of the stream is held[j + 30]
+        D, H = 30, 25
+        expect[a - (D - R):b + H + 1] = 0.0
+        for k in range(1, R + 1):
+            expect[a - D + R - k] = expect[b + H + k] = k / (R + 1)  # both ramps rise away from the talker
+        np.testing.assert_allclose(held[D:], expect[:F - D], rtol=0, atol=1e-12)
+
+
+def test_snr_share_clip_leaves_a_loud_frame_out_of_the_noise():
+    """``frame_snr_clip_db = 15``: a quiet frame more than 15 dB over the noise's average (a talker the ratio
+    missed) is not noise.  Closed form: talker frames at 100, quiet ones at 1 and one at 100 (20 dB up) -- the
+    noise average stays 1 with 5 frames counted (share 1 from SNR 20 dB); without the clip it is 105 / 6
+    (SNR 7.6 dB: share 0.26 on (6, 12))."""
+    from enhancers.mic_calibration import _frame_snr_share
+
+    talker = np.array([True] * 3 + [False] * 6)
+    power = np.array([100.0] * 3 + [1.0, 1.0, 1.0, 100.0, 1.0, 1.0])
+    quiet = ~talker
+    for clip, noise, count in ((15.0, 1.0, 5), (None, 105.0 / 6.0, 6)):
+        p = make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0), frame_snr_clip_db=clip).params
+        kappa, state = _frame_snr_share(talker, power, None, p, fs=FS, quiet=quiet, quiet_power=power)
+        np.testing.assert_allclose(state[2:], [noise, count], rtol=1e-12)
+        expect = min(1.0, max(0.0, (10 * np.log10(100.0 / noise) - 6.0) / 6.0))
+        np.testing.assert_allclose(kappa[-1], expect, rtol=0, atol=1e-12)
+
+
 def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
     """The weights the DAS weight may learn at once (``mix_fast_cells``): the frame rule's own, frame by frame,
     from the stream start until it first weighs a frame below 1 -- the talker's first burst at 4 s (less the
@@ -913,7 +998,10 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
                                  {"frame_snr_quiet": "yes"}, {"frame_start_s": -0.1},
                                  {"frame_snr_frames": -1.0}, {"frame_snr_quiet_ratio": 1},
                                  {"frame_snr_quiet_ratio": True},
-                                 {"frame_snr_low_hz": 1000.0}, {"frame_snr_low_hz": -1.0}])
+                                 {"frame_snr_low_hz": 1000.0}, {"frame_snr_low_hz": -1.0},
+                                 {"frame_snr_clip_db": 0.0}, {"frame_hold_taper_s": 0.3},  # > level_ahead_s
+                                 {"frame_hold_taper_s": -0.01}, {"cal_rear_soft_db": 3.0},  # no cal_rear_db
+                                 {"cal_rear_soft_db": -1.0, "cal_rear_db": 10.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
