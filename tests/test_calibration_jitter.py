@@ -74,7 +74,7 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False)
+                    frame_delayed=False, frame_smooth=False, frame_taper=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
@@ -91,8 +91,9 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     """``--frame`` / ``--frame-lowsnr`` / ``--frame-delayed`` / ``--frame-smooth``: :data:`FRAME` (:data:`COMBINED`
     with the frame rule and the delayed DAS weight), :data:`FRAME_LOWSNR`, :data:`FRAME_DELAYED` (that with beta
     learned late: only the beta, freeze and stand-in fields change, the rest is added) or :data:`FRAME_SMOOTH`
-    (that with fields added and the SNR share's range moved) for ``eb-robust``, :data:`COMBINED_SS` for the ``ss`` stage, ``--set``
-    winning; both valid ``eb-robust`` parameter sets."""
+    (that with fields added and the SNR share's range moved) or :data:`FRAME_TAPER` (``--frame-taper``: that with
+    the graded edges added and three start-up fields changed) for ``eb-robust``, :data:`COMBINED_SS` for the
+    ``ss`` stage, ``--set`` winning; all valid ``eb-robust`` parameter sets."""
     import argparse
 
     from benchmarks.perf.calibration_jitter import (
@@ -102,13 +103,14 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         FRAME_DELAYED,
         FRAME_LOWSNR,
         FRAME_SMOOTH,
+        FRAME_TAPER,
         mode_params,
     )
     from enhancers.registry import make
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False)
+                    frame_delayed=False, frame_smooth=False, frame_taper=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
@@ -128,7 +130,12 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     assert over == {**FRAME_SMOOTH, "frame_start_s": 0.1} and ss == COMBINED_SS
     assert {k: v for k, v in FRAME_SMOOTH.items() if k in FRAME_DELAYED and k != "frame_snr_db"} == \
         {k: v for k, v in FRAME_DELAYED.items() if k != "frame_snr_db"}  # adds fields, moves the share's range
-    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH):
+    over, ss = mode_params(args(frame_taper=True, frame_smooth=True))  # the newer setting wins
+    assert over == FRAME_TAPER and ss == COMBINED_SS
+    changed = ("mix_fast_ramp_cells", "mix_alpha0", "frame_snr_frames")
+    assert {k: v for k, v in FRAME_TAPER.items() if k in FRAME_SMOOTH and k not in changed} == \
+        {k: v for k, v in FRAME_SMOOTH.items() if k not in changed}
+    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH, FRAME_TAPER):
         make("eb-robust", **params)
 
 
