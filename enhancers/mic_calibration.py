@@ -330,8 +330,8 @@ average), so 15 dB input read 4.5 dB and the low-SNR path learned during speech 
 SNR-I was lost at the stream start: FRAME_TAPER (below) at 0 dB input, built-in, mean of 5 seeds, scored from
 2 s on beats the default (28.2 vs 27.4 dB), from 1 s on it is 2.4 dB behind and over the whole file 3.8 dB
 (19.0 vs 22.8): the null is learned late, and the first second's noise dominates a nulled output; the DAS
-weight's stand-in unshrunk (``mix_fast_ramp_cells=0``, +0.7 dB at 0-10 dB input) and from the prior 0 (``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER
-<benchmarks.perf.calibration_jitter.FRAME_TAPER>` (``--frame-taper``), measured as FRAME_SMOOTH was: on
+weight's stand-in unshrunk (``mix_fast_ramp_cells=0``, +0.7 dB at 0-10 dB input) and from the prior 0
+(``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER <benchmarks.perf.calibration_jitter.FRAME_TAPER>` (``--frame-taper``), measured as FRAME_SMOOTH was: on
 ``../shared/data`` worst -28.2 dB, median -38.2, 2 of 60 rows above -30 (factory 20 dB seed 4, r_hat; hall
 15 dB seed 3 at -30.0), agreement 100 %, SNR-I vs the default babble +0.2, factory +0.0, hall +1.3, wind
 -0.0 dB, mismatch loss 1.95 / 1.46 / 0.38 dB; built-in worst -28.8, median -41.4, 1 of 60 (hall 20 dB seed
