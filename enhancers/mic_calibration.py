@@ -314,38 +314,37 @@ least), ``frame_soft_db=3`` (19 rows on the shared data: every frame in the grad
 little between the runs), not learning the first frames at all (factory -2.8 to -3.4 dB: a machine's null is
 learned in them).
 
-Eighth round (issue 16, 2 December 2026): the edges that still flipped between the runs, graded.  A
-per-frame comparison of the held weights of the runs on ``s + n`` and ``s - n`` found three (numbers from
-single rows; each piece is opt-in): the hold's edge -- an onset heard a frame apart moved the hold over a
-noise frame 24 dB above the floor (a machine's hit) that one run learned and the other did not, in a stream
-that learned 32 frames in all (built-in factory 20 dB seed 1, -26.0 dB): ``frame_hold_taper_s`` tapers both
-edges (:func:`_held`; a one-frame shift then moves a weight by ``1 / (R + 1)``; in FRAME_TAPER, factory 20 dB's
-worst row is -35.5 dB with it and -26.6 dB without);
-the rear rule's threshold -- the rule compares ``P_B`` with ``P_F``, which holds the talker, so the cross term
-decided cells at -13..-25 dB local SNR (weights 0.6-0.7 in one run, 0.1 in the other): ``cal_rear_soft_db``
-ramps the weight over that many dB above ``cal_rear_db`` (:func:`_rear_weight`); and the SNR share's noise
-average -- the quiet frames of the hall at 15 dB held speech the ratio missed (8.7 dB over the noise on
-average), so 15 dB input read 4.5 dB and the low-SNR path learned during speech (built-in hall 15 dB seed
-0, -27.9 dB): ``frame_snr_clip_db`` skips a frame that far above the average (15 dB: then 15.5 dB).  Factory's
-SNR-I was lost at the stream start: FRAME_TAPER (below) at 0 dB input, built-in, mean of 5 seeds, scored from
-2 s on beats the default (28.2 vs 27.4 dB), from 1 s on it is 2.4 dB behind and over the whole file 3.8 dB
-(19.0 vs 22.8): the null is learned late, and the first second's noise dominates a nulled output; the DAS
+Eighth round (issue 16, 2 December 2026): the edges that still flipped between the runs, graded.  A per-frame
+comparison of the held weights of the runs on ``s + n`` and ``s - n`` found three (numbers from single rows;
+each piece is opt-in): the hold's edge -- an onset heard a frame apart moved the hold over a noise frame 24 dB
+above the floor (a machine's hit) that one run learned and the other did not, in a stream that learned 32 frames
+in all (built-in factory 20 dB seed 1, -26.0 dB): ``frame_hold_taper_s`` tapers both edges (:func:`_held`; a
+one-frame shift then moves a weight by ``1 / (R + 1)``; in FRAME_TAPER, factory 20 dB's worst row is -35.5 dB
+with it and -26.6 dB without); the rear rule's threshold -- the rule compares ``P_B`` with ``P_F``, which holds
+the talker, so the cross term decided cells at -13..-25 dB local SNR (weights 0.6-0.7 in one run, 0.1 in the
+other): ``cal_rear_soft_db`` ramps the weight over that many dB above ``cal_rear_db`` (:func:`_rear_weight`);
+and the SNR share's noise average -- the quiet frames of the hall at 15 dB held speech the ratio missed (8.7 dB
+over the noise on average), so 15 dB input read 4.5 dB and the low-SNR path learned during speech (built-in hall
+15 dB seed 0, -27.9 dB): ``frame_snr_clip_db`` skips a frame that far above the average (15 dB: then 15.5 dB). 
+Factory's SNR-I was lost at the stream start: FRAME_TAPER (below) at 0 dB input, built-in, mean of 5 seeds,
+scored from 2 s on beats the default (28.2 vs 27.4 dB), from 1 s on it is 2.4 dB behind and over the whole file
+3.8 dB (19.0 vs 22.8): the null is learned late, and the first second's noise dominates a nulled output; the DAS
 weight's stand-in unshrunk (``mix_fast_ramp_cells=0``, +0.7 dB at 0-10 dB input) and from the prior 0
-(``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER <benchmarks.perf.calibration_jitter.FRAME_TAPER>` (``--frame-taper``), measured as FRAME_SMOOTH was: on
-``../shared/data`` worst -28.2 dB, median -38.2, 2 of 60 rows above -30 (factory 20 dB seed 4, r_hat; hall
-15 dB seed 3 at -30.0), agreement 100 %, SNR-I vs the default babble +0.2, factory +0.0, hall +1.3, wind
--0.0 dB, mismatch loss 1.95 / 1.46 / 0.38 dB; built-in worst -28.8, median -41.4, 1 of 60 (hall 20 dB seed
-2, r_hat), agreement 100 %, SNR-I -0.5 / -0.90 / +1.8 / -0.25 dB.  Three of the four targets are met; the
-jitter target misses by 3 rows, each the rear rule's cells in a talker's frames.  Its neighbours trade the
-rows against the margins and none meets all four (same runs, shared + built-in rows above -30 / built-in
-factory SNR-I / 135 deg loss): ``frame_snr_frames`` 0 / 40 instead of 20: 2 + 1 / -0.75 / 1.99 dB and 2 + 1
-/ -0.96 / 1.85 dB; ``level_ahead_s=0.2`` (the hold shorter, the start sooner: the look ahead alone cost 1.7
-dB at 0-5 dB): 3 + 1 / -0.67 / 1.16 dB; that with ``cal_rear_db=12``: 1 + 1 (worst -28.2 / -25.4) / -0.98 /
-1.30 dB, and with ``frame_snr_frames=0`` as well a built-in row at -13.3 dB.  Tried and left out: the rear
-rule off at high SNR (``cal_rear_db=60``: the shared rows met, built-in factory -1.3 dB more -- the share
-reads factory's 0-5 dB input as 10-14 dB, so the high threshold carries its null), a ramp centred on the
-threshold (lets more of the talker in), a slower smoother for the rear rule alone (in factory: one row less on
-the shared data, one more on the built-in), the share's talker frames from 1-4 kHz alone (factory's SNR-I
+(``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER <benchmarks.perf.calibration_jitter.FRAME_TAPER>`
+(``--frame-taper``), measured as FRAME_SMOOTH was: on ``../shared/data`` worst -28.2 dB, median -38.2, 2 of 60
+rows above -30 (factory 20 dB seed 4, r_hat; hall 15 dB seed 3 at -30.0), agreement 100 %, SNR-I vs the default
+babble +0.2, factory +0.0, hall +1.3, wind -0.0 dB, mismatch loss 1.95 / 1.46 / 0.38 dB; built-in worst -28.8,
+median -41.4, 1 of 60 (hall 20 dB seed 2, r_hat), agreement 100 %, SNR-I -0.5 / -0.90 / +1.8 / -0.25 dB.  Three
+of the four targets are met; the jitter target misses by 3 rows, each the rear rule's cells in a talker's
+frames.  Its neighbours trade the rows against the margins and none meets all four (same runs, shared + built-in
+rows above -30 / built-in factory SNR-I / 135 deg loss): ``frame_snr_frames`` 0 / 40 instead of 20: 2 + 1 /
+-0.75 / 1.99 dB and 2 + 1 / -0.96 / 1.85 dB; ``level_ahead_s=0.2`` (the hold shorter, the start sooner: the look
+ahead alone cost 1.7 dB at 0-5 dB): 3 + 1 / -0.67 / 1.16 dB; that with ``cal_rear_db=12``: 1 + 1 (worst -28.2 /
+-25.4) / -0.98 / 1.30 dB, and with ``frame_snr_frames=0`` as well a built-in row at -13.3 dB.  Tried and left
+out: the rear rule off at high SNR (``cal_rear_db=60``: the shared rows met, built-in factory -1.3 dB more --
+the share reads factory's 0-5 dB input as 10-14 dB, so the high threshold carries its null), a ramp centred on
+the threshold (lets more of the talker in), a slower smoother for the rear rule alone (in factory: one row less
+on the shared data, one more on the built-in), the share's talker frames from 1-4 kHz alone (factory's SNR-I
 unchanged).
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
