@@ -325,7 +325,7 @@ the talker, so the cross term decided cells at -13..-25 dB local SNR (weights 0.
 other): ``cal_rear_soft_db`` ramps the weight over that many dB above ``cal_rear_db`` (:func:`_rear_weight`);
 and the SNR share's noise average -- the quiet frames of the hall at 15 dB held speech the ratio missed (8.7 dB
 over the noise on average), so 15 dB input read 4.5 dB and the low-SNR path learned during speech (built-in hall
-15 dB seed 0, -27.9 dB): ``frame_snr_clip_db`` skips a frame that far above the average (15 dB: then 15.5 dB). 
+15 dB seed 0, -27.9 dB): ``frame_snr_clip_db`` skips a frame that far above the average (15 dB: then 15.5 dB).
 Factory's SNR-I was lost at the stream start: FRAME_TAPER (below) at 0 dB input, built-in, mean of 5 seeds,
 scored from 2 s on beats the default (28.2 vs 27.4 dB), from 1 s on it is 2.4 dB behind and over the whole file
 3.8 dB (19.0 vs 22.8): the null is learned late, and the first second's noise dominates a nulled output; the DAS
