@@ -343,9 +343,11 @@ ahead alone cost 1.7 dB at 0-5 dB): 3 + 1 / -0.67 / 1.16 dB; that with ``cal_rea
 -25.4) / -0.98 / 1.30 dB, and with ``frame_snr_frames=0`` as well a built-in row at -13.3 dB.  Tried and left
 out: the rear rule off at high SNR (``cal_rear_db=60``: the shared rows met, built-in factory -1.3 dB more --
 the share reads factory's 0-5 dB input as 10-14 dB, so the high threshold carries its null), a ramp centred on
-the threshold (lets more of the talker in), a slower smoother for the rear rule alone (in factory: one row less
-on the shared data, one more on the built-in), the share's talker frames from 1-4 kHz alone (factory's SNR-I
-unchanged).
+the threshold (lets more of the talker in), the rear rule's high threshold only in cells whose ``P_F`` is within
+6-10 dB of its 3 s minimum (the talker absent there: the shared factory rows met, -31.4 dB, but built-in factory
+-0.5 to -0.6 dB more -- the cells the talker is in are where that null is learned during speech), a slower
+smoother for the rear rule alone (in factory: one row less on the shared data, one more on the built-in), the
+share's talker frames from 1-4 kHz alone (factory's SNR-I unchanged).
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
