@@ -558,11 +558,11 @@ class CalibrationParams(StftParams):
                                  "True or False (True only with frame_snr_quiet=True: it picks that estimate's frames)")
         if self.frame_snr_clip_db is not None:
             check_range("frame_snr_clip_db", self.frame_snr_clip_db, 0.0, 60.0, lo_open=True)
-        # the taper's last frames lie inside the look ahead (rounding to frames keeps the order)
         check_range("cal_rear_soft_db", self.cal_rear_soft_db, 0.0, 60.0)
         if self.cal_rear_soft_db > 0 and (self.cal_rear_db is None or self.frame_q_db is None):
             raise ParameterError("cal_rear_soft_db", self.cal_rear_soft_db,
                                  "0 unless cal_rear_db and frame_q_db are set (it grades the rear rule's weights)")
+        # the taper's last frames lie inside the look ahead (rounding to frames keeps the order)
         check_range("frame_hold_taper_s", self.frame_hold_taper_s, 0.0, float(self.level_ahead_s))
         if self.frame_snr_low_hz is not None:
             check_range("frame_snr_low_hz", self.frame_snr_low_hz, 0.0, float(self.frame_band_hz[0]), hi_open=True)
@@ -743,7 +743,10 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet
     hit, is noise, and leaving it out made the estimate high in factory noise, where the share then gave up the
     learning during speech that the null of its machine needs (measured on ``phone``'s factory, built-in seed 1:
     2-4 dB of SNR-I at 5-15 dB input).  ``frame_snr_low_hz``: the powers run from there up to ``frame_band_hz``'s
-    upper edge (the talker's band; over 1-4 kHz alone a high-frequency noise made 25 dB input read as ~11 dB)."""
+    upper edge (the talker's band; over 1-4 kHz alone a high-frequency noise made 25 dB input read as ~11 dB).
+    ``frame_snr_clip_db``: once the noise's average has ``SNR_CLIP_MIN`` frames, a frame that far above it is
+    left out of it -- a talker the ratio rule missed is not noise (measured on ``phone``'s hall at 15 dB, built-in
+    seed 0: the quiet frames held speech 8.7 dB over the noise on average, and 15 dB input read 4.5 dB)."""
     state = np.zeros(4) if snr is None else snr.copy()
     one_pole = 1.0 - math.exp(-int(p.hop) / (fs * SNR_TAU_S))
     lo, hi = (float(v) for v in p.frame_snr_db)
