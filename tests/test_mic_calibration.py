@@ -786,9 +786,8 @@ def test_graded_rear_rule_tends_to_the_hard_one():
     weighted by ``1 - share``.  Oracle: the hard rule (a slow reference of the same arithmetic) -- with
     ``g = 1e-9`` the held weights equal the hard rule's at mixed shares (``frame_snr_db=(6, 12)``), with both
     thresholds and with ``cal_rear_db`` alone, to 1e-12 (a cell's smoothed ratio within 1e-9 dB of 10 dB
-    is the only way to differ).  Control: ``g = 3`` differs (measured: mean |difference| of the weights 0.0056 with both
-    thresholds, 0.0074 with ``cal_rear_db`` alone),
-    so each equality can fail."""
+    is the only way to differ).  Control: ``g = 3`` differs (measured: mean |difference| of the weights
+    0.0056 with both thresholds, 0.0074 with ``cal_rear_db`` alone), so each equality can fail."""
     x = _rear_scene(41)
     for low in ({"cal_rear_low_db": 6.0}, {}):
         rule = dict(FRAME_RULE, cal_rear_db=10.0, frame_snr_db=(6.0, 12.0), **low)
@@ -811,7 +810,8 @@ def test_blocks_match_one_pass_with_the_graded_edges():
 def test_hold_taper_moves_an_onset_by_one_frame_weight():
     """``frame_hold_taper_s`` (``R`` frames): a talker heard one frame later changes no held weight by more than
     ``1 / (R + 1)``; the hard hold (``R = 0``) changes a whole frame's, by 1 (closed form of the taper: the
-    weight of a frame ``k`` frames inside the taper is ``k / (R + 1)``).  Both ends: an onset and an end."""
+    weight of a frame ``k`` frames outside the hold's core is ``k / (R + 1)``).  Both ends: an onset and an
+    end."""
     from enhancers.mic_calibration import _held
 
     for R in (0, 3, 6):
@@ -837,11 +837,11 @@ def test_hold_taper_keeps_the_hold_in_place(monkeypatch):
     w[a:b + 1] = 0.0
     monkeypatch.setattr(mc, "_frame_rule", lambda X1, X2, state, p, **k: (w, None, w < 1, np.ones(F)))
     X = np.zeros((F, 129), dtype=complex)
+    D, H = 30, 25  # FRAME_RULE's 0.24 s and 0.2 s at a 128-sample hop
     for R, taper in ((0, 0.0), (6, 0.05)):
         p = make("mic-calibration", **FRAME_RULE, frame_hold_taper_s=taper).params
-        held = mc._frame_weights(X, X, mc.calibration_init(129), p, fs=FS, delay=1.0, n_ahead=30, changes={})[0]
-        expect = np.ones(F)  # frame j of the stream is held[j + 30]
-        D, H = 30, 25
+        held = mc._frame_weights(X, X, mc.calibration_init(129), p, fs=FS, delay=1.0, n_ahead=D, changes={})[0]
+        expect = np.ones(F)  # frame j of the stream is held[j + D]
         expect[a - (D - R):b + H + 1] = 0.0
         for k in range(1, R + 1):
             expect[a - D + R - k] = expect[b + H + k] = k / (R + 1)  # both ramps rise away from the talker
