@@ -480,6 +480,7 @@ class CalibrationParams(StftParams):
     frame_snr_clip_db: float | None = None
     frame_hold_taper_s: float = 0.0
     cal_rear_soft_db: float = 0.0
+    cal_rear_lam: float | None = None
 
     @property
     def talker_blind(self) -> bool:
@@ -562,6 +563,11 @@ class CalibrationParams(StftParams):
         if self.cal_rear_soft_db > 0 and (self.cal_rear_db is None or self.frame_q_db is None):
             raise ParameterError("cal_rear_soft_db", self.cal_rear_soft_db,
                                  "0 unless cal_rear_db and frame_q_db are set (it grades the rear rule's weights)")
+        if self.cal_rear_lam is not None:
+            check_range("cal_rear_lam", self.cal_rear_lam, 0.0, 1.0, hi_open=True)
+            if self.cal_rear_soft_db <= 0:
+                raise ParameterError("cal_rear_lam", self.cal_rear_lam,
+                                     "None unless cal_rear_soft_db > 0 (it smooths the graded rear rule's ratio)")
         # the taper's last frames lie inside the look ahead (rounding to frames keeps the order)
         check_range("frame_hold_taper_s", self.frame_hold_taper_s, 0.0, float(self.level_ahead_s))
         if self.frame_snr_low_hz is not None:
@@ -1136,7 +1142,9 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
         fires, changes["q_cal"] = power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db), **rule)
     if p.cal_rear_db is not None and p.cal_rear_soft_db > 0:  # graded: the smoothed ratio itself (dB), as the gate
         q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
-        sb, sf = smooth_frames(pB, rule["lam"], q.pf), smooth_frames(pF, rule["lam"], q.pb)
+        # cal_rear_lam: a slower smoother averages the talker x noise cross term in P_F over more frames
+        lam = rule["lam"] if p.cal_rear_lam is None else float(p.cal_rear_lam)
+        sb, sf = smooth_frames(pB, lam, q.pf), smooth_frames(pF, lam, q.pb)
         rear = 10.0 * np.log10((sb + TINY) / (sf + TINY))
         changes["q_rear"] = GateState(pf=sb[-1].copy(), pb=sf[-1].copy()) if len(rear) else q
     elif p.cal_rear_db is not None:

@@ -787,7 +787,8 @@ def test_graded_rear_rule_tends_to_the_hard_one():
     ``g = 1e-9`` the held weights equal the hard rule's at mixed shares (``frame_snr_db=(6, 12)``), with both
     thresholds and with ``cal_rear_db`` alone, to 1e-12 (a cell's smoothed ratio within 1e-9 dB of 10 dB
     is the only way to differ).  Control: ``g = 3`` differs (measured: mean |difference| of the weights
-    0.0056 with both thresholds, 0.0074 with ``cal_rear_db`` alone), so each equality can fail."""
+    0.0056 with both thresholds, 0.0074 with ``cal_rear_db`` alone), so each equality can fail.
+    ``cal_rear_lam`` = ``gate_lam_cal`` gives the same weights bit for bit; 0.8 differs (measured 0.019 / 0.025)."""
     x = _rear_scene(41)
     for low in ({"cal_rear_low_db": 6.0}, {}):
         rule = dict(FRAME_RULE, cal_rear_db=10.0, frame_snr_db=(6.0, 12.0), **low)
@@ -795,6 +796,9 @@ def test_graded_rear_rule_tends_to_the_hard_one():
         np.testing.assert_allclose(_learn_weights(x, **rule, cal_rear_soft_db=1e-9), hard, rtol=0, atol=1e-12)
         soft = _learn_weights(x, **rule, cal_rear_soft_db=3.0)
         assert np.abs(soft - hard).mean() > 0.003
+        # cal_rear_lam: the rule's own smoother, gate_lam_cal (0.7) unless given -- the same to the last bit
+        np.testing.assert_array_equal(_learn_weights(x, **rule, cal_rear_soft_db=3.0, cal_rear_lam=0.7), soft)
+        assert np.abs(_learn_weights(x, **rule, cal_rear_soft_db=3.0, cal_rear_lam=0.8) - soft).mean() > 0.01
 
 
 def test_blocks_match_one_pass_with_the_graded_edges():
@@ -802,8 +806,8 @@ def test_blocks_match_one_pass_with_the_graded_edges():
     SNR share's clip (``FRAME_TAPER``'s pieces: the longer weight tail, the pending ratios in dB and the
     share's state are carried).  Oracle: the same computation, to 1e-12 (and masks exactly)."""
     e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), cal_rear_db=10.0, cal_rear_low_db=6.0,
-             cal_rear_soft_db=3.0, frame_hold_taper_s=0.05, frame_snr_quiet=True, frame_snr_quiet_ratio=True,
-             frame_snr_clip_db=15.0)
+             cal_rear_soft_db=3.0, cal_rear_lam=0.8, frame_hold_taper_s=0.05, frame_snr_quiet=True,
+             frame_snr_quiet_ratio=True, frame_snr_clip_db=15.0)
     _assert_blocks_match_one_pass(e, _rear_scene(42)[:, : 3 * FS], (1, 6, 43))
 
 
@@ -1001,7 +1005,9 @@ def test_frame_level_rule_fires_far_above_the_floor(step_db, loud):
                                  {"frame_snr_low_hz": 1000.0}, {"frame_snr_low_hz": -1.0},
                                  {"frame_snr_clip_db": 0.0}, {"frame_hold_taper_s": 0.3},  # > level_ahead_s
                                  {"frame_hold_taper_s": -0.01}, {"cal_rear_soft_db": 3.0},  # no cal_rear_db
-                                 {"cal_rear_soft_db": -1.0, "cal_rear_db": 10.0}])
+                                 {"cal_rear_soft_db": -1.0, "cal_rear_db": 10.0},
+                                 {"cal_rear_lam": 0.8, "cal_rear_db": 10.0},  # no cal_rear_soft_db
+                                 {"cal_rear_lam": 1.0, "cal_rear_db": 10.0, "cal_rear_soft_db": 3.0}])
 def test_frame_band_and_level_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 
