@@ -162,13 +162,14 @@ FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, 
                 "frame_snr_low_hz": 250.0, "frame_snr_db": (8.0, 14.0)}
 # the same with the edges that still flipped between the runs graded (issue 16, eighth round): the frame rule's
 # hold tapers over 0.05 s at both ends (frame_hold_taper_s: an onset heard a frame apart moved a whole noise
-# frame), the rear rule's weight ramps over 3 dB above cal_rear_db (cal_rear_soft_db), the SNR share's noise
+# frame), the rear rule's weight ramps over 3 dB above cal_rear_db on a slower smoother (cal_rear_soft_db,
+# cal_rear_lam: the talker x noise cross term in P_F decided cells near the threshold), the SNR share's noise
 # average skips a frame 15 dB over it (frame_snr_clip_db: a talker the ratio missed made 15 dB input read ~5 dB);
 # and SNR-I bought back where it was lost, at the stream start (factory at 0-5 dB: the null learned late): the
 # DAS weight's stand-in unshrunk (mix_fast_ramp_cells=0) and from the prior 0 (mix_alpha0), the share's ramp
-# over 20 frames
-FRAME_TAPER = {**FRAME_SMOOTH, "frame_hold_taper_s": 0.05, "cal_rear_soft_db": 3.0, "frame_snr_clip_db": 15.0,
-               "mix_fast_ramp_cells": 0.0, "mix_alpha0": 0.0, "frame_snr_frames": 20.0}
+# over 10 frames
+FRAME_TAPER = {**FRAME_SMOOTH, "frame_hold_taper_s": 0.05, "cal_rear_soft_db": 3.0, "cal_rear_lam": 0.8,
+               "frame_snr_clip_db": 15.0, "mix_fast_ramp_cells": 0.0, "mix_alpha0": 0.0, "frame_snr_frames": 10.0}
 
 
 def _params(blind, overrides=None) -> dict:
