@@ -352,8 +352,9 @@ talker in), the rear rule's high threshold only in cells whose ``P_F`` is within
 talker absent there: the shared factory rows met, -31.4 dB, but built-in factory -0.5 to -0.6 dB more -- the
 cells the talker is in are where that null is learned during speech), other smoothers for the rule (0.9 / 0.95
 in factory: one row less on the shared data, one more on the built-in, 0.4 dB of SNR-I; at 15-25 dB, 0.75: a row
-at -30.0 dB, 0.85: two, -30.0 / -29.6 dB), a longer taper (0.08 / 0.12 s: 2 + 2 and 2 + 1 rows), the share's
-talker frames from 1-4 kHz alone (factory's SNR-I unchanged).
+at -30.0 dB, 0.85: two, -30.0 / -29.6 dB), a longer taper (0.08 / 0.12 s: 2 + 2 and 2 + 1 rows; in FRAME_TAPER
+0.06 s puts a shared row at -23.0 dB and beta's stand-in over 20 / 40 frames changes no row: what is left is
+sensitive to every edge), the share's talker frames from 1-4 kHz alone (factory's SNR-I unchanged).
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
