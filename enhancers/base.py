@@ -55,7 +55,8 @@ class Params:
     def from_dict(cls, values: Mapping[str, Any]):
         """Build from a mapping; unknown keys raise :class:`ParameterError` naming them.
 
-        Lists (as JSON gives them back) are turned into tuples where the field is a tuple.
+        Lists (as JSON gives them back) are turned into tuples where the field is a tuple, or may be
+        one (a ``tuple | None`` field whose default is None).
         """
         known = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - set(known))
@@ -64,7 +65,7 @@ class Params:
         converted = {}
         for key, value in values.items():
             default = known[key].default
-            if isinstance(value, list) and isinstance(default, tuple):
+            if isinstance(value, list) and (isinstance(default, tuple) or "tuple" in str(known[key].type)):
                 value = tuple(value)
             converted[key] = value
         return cls(**converted)

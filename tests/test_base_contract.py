@@ -47,6 +47,15 @@ def test_params_json_round_trip_restores_tuples():
     assert _GainParams.from_json(p.to_json()) == p
 
 
+def test_params_json_round_trip_restores_an_optional_tuple():
+    """A ``tuple | None`` field whose default is None (``eb-robust``'s ``mix_bands_hz``, set by the registered
+    ``eb-robust-blind``) comes back from JSON as the tuple, not the list JSON gives (which its check refuses)."""
+    from enhancers.registry import make
+
+    params = make("eb-robust", mix_bands_hz=(1000.0, 4000.0)).params
+    assert type(params).from_json(params.to_json()) == params
+
+
 def test_coerce_strings_parses_field_types_and_rejects_bad_text():
     assert _GainParams.coerce_strings({"gain": "0.5"}) == {"gain": 0.5}
     with pytest.raises(ParameterError, match="gain"):
