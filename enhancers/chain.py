@@ -170,12 +170,15 @@ def _check_stages(pairs: Sequence[tuple[str, str]]) -> None:
 def _build_params_class(owner: type) -> type:
     """Generate ``owner.Params`` from its stages (imports the stage classes)."""
     _check_stages(owner.stages)
+    unknown = sorted(set(owner.stage_defaults) - {p for p, _ in owner.stages})
+    if unknown:
+        raise ParameterError("stage_defaults", unknown[0], "a prefix of one of the chain's stages")
     infos = []
     fields: list[tuple[str, Any, Any]] = []
     for prefix, ref in owner.stages:
         spec = get_spec(ref)
         stage_cls = spec.load()
-        defaults = dict(spec.default_params)
+        defaults = {**spec.default_params, **owner.stage_defaults.get(prefix, {})}
         default = stage_cls.Params(**defaults)
         needs_geometry = bool(stage_cls(default).tags.needs_geometry)
         info = _StageInfo(prefix, ref, stage_cls.Params, defaults, needs_geometry)
@@ -231,9 +234,12 @@ def hop_of(enhancer, fs: int | None = None) -> int | None:
 
 
 class Chain(Enhancer):
-    """Enhancers in series; subclasses set ``name`` and ``stages`` (see module docstring)."""
+    """Enhancers in series; subclasses set ``name`` and ``stages`` (see module docstring), and optionally
+    ``stage_defaults``: per prefix, parameters that replace the stage's registry defaults in this chain (its
+    ``Params`` defaults, and what a stage dict's omitted keys take)."""
 
     stages: ClassVar[tuple[tuple[str, str], ...]] = ()
+    stage_defaults: ClassVar[Mapping[str, Mapping[str, Any]]] = {}
     Params = _LazyParams()  # type: ignore[assignment]
 
     def __init__(self, params: Params | None = None, **overrides: Any):

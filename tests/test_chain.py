@@ -125,6 +125,27 @@ def test_runtime_chain_pickles_and_is_conformant(toy_chain):
         unregister("toy-chain")
 
 
+def test_stage_defaults_replace_the_stages_registry_defaults():
+    """``stage_defaults``: ``eb-robust-blind-ss``'s ss stage defaults to its averaged gain; a stage dict's omitted
+    keys take those (not plain ss's), and an explicit key wins.  A prefix the chain does not have is a one-line
+    parameter error."""
+    from enhancers.chain import Chain
+    from enhancers.presets import EB_ROBUST_BLIND_SS
+
+    ss = make("eb-robust-blind-ss").params.ss
+    assert ss == make("ss", **EB_ROBUST_BLIND_SS).params != make("ss").params
+    one = make("eb-robust-blind-ss", ss={"gain_bins": 1}).params.ss
+    assert (one.gain_bins, one.gain_smooth, one.power_bins) == (1, 0.55, 2)
+
+    class Bad(Chain):
+        name, version, summary = "toy-bad", "1", "toy"
+        stages = (("ss", "ss"),)
+        stage_defaults = {"eb": {"mu": 0.1}}
+
+    with pytest.raises(ParameterError, match="stage_defaults"):
+        Bad()
+
+
 def test_chain_class_is_cached_and_validates():
     assert chain_class("toy-c", ["toy-gain", "toy-delay"]) is chain_class("toy-c", ["toy-gain", "toy-delay"])
     assert chain_class("toy-c", ["toy-gain"]).stages == (("toy_gain", "toy-gain"),)
