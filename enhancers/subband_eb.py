@@ -134,7 +134,7 @@ class SubbandState:
     mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
     mix_pend: tuple | None = None  # mix_model="delayed": the last frames' (Y, D, p1), (D, K) each, not yet judged
     mix_fast: tuple | None = None  # mix_fast_cells: the start-up weight's averages (as alpha, p_d, p_m, mix_n)
-    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open), (D, K) each
+    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open, |X1|^2), (D, K) each
     beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
     beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
     beta_floor_tail: np.ndarray | None = None  # beta_level_db: the last frames' smoothed |X1|^2, (W - 1, K)
@@ -239,7 +239,9 @@ def _level_weights(p_frames, p_now, tail, *, n_window: int, knee_db: float):
     (F, K), new tail)``.  The floor of frame ``i`` is the minimum of the smoothed ``|X1|^2`` over the ``n_window``
     frames heard by then (``p_now (F, K)``, the block's, after ``tail (n_window - 1, K)``, the frames before it;
     None at the stream start); a cell's weight is ``min(1, g floor / P)^2`` with ``P = p_frames (F, K)``, the
-    judged frame's own level, and ``g = 10^(knee_db / 10)``.
+    judged frame's own level, and ``g = 10^(knee_db / 10)``.  (The caller passes the larger of the cell's
+    power and its smoothed power: the smoothed one alone lags a burst's onset by a few frames, which then
+    weigh almost fully.)
 
     Why: least squares is power-weighted, so one talker frame the frame rule missed, 20 dB over the noise,
     outweighs a hundred noise frames (measured: a voiced ending at 20 dB local SNR below 500 Hz, heard in one
@@ -537,7 +539,8 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         p1 = smooth_frames(X1.real**2 + X1.imag**2, float(p.lam), sub.p_1) if F else np.zeros((0, K))
         open_ = np.ones((F, K)) if frozen is None else (~frozen).astype(float)
         n_ahead = p.look_ahead_frames(fs)  # (eb-robust's calibration parameters)
-        fs_, bs_, ps_, os_ = _pending(sub.beta_pend, (cF, cB, p1, open_), n_ahead)
+        e1 = X1.real**2 + X1.imag**2
+        fs_, bs_, ps_, os_, es_ = _pending(sub.beta_pend, (cF, cB, p1, open_, e1), n_ahead)
         held, now = learn
         zeros = [np.zeros(K)] * 4
         # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
@@ -548,8 +551,10 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         values = dict(vars(sub))
         if p.beta_level_db is not None:  # the judged cells weighed by their level over the noise floor
             n_window = max(1, int(math.ceil(float(p.beta_floor_s) * fs / int(p.hop))))
-            level, values["beta_floor_tail"] = _level_weights(ps_[:F], p1, sub.beta_floor_tail, n_window=n_window,
-                                                              knee_db=float(p.beta_level_db))
+            # the cell's level: its own power, or the smoothed one where that is higher (it lags an onset,
+            # the raw one a decay's echo in the window)
+            level, values["beta_floor_tail"] = _level_weights(np.maximum(es_[:F], ps_[:F]), p1, sub.beta_floor_tail,
+                                                              n_window=n_window, knee_db=float(p.beta_level_db))
             learned = learned * level
         betas, *st = pooled_mix_step(fs_[:F], bs_[:F], ps_[:F], learned, *st, **kw)
         if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
@@ -559,7 +564,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
             betas = _hand_over(quick, betas, n_before, float(p.beta_fast_frames), p.fast_blend)
             values["beta_fast"] = tuple(fast)
-        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:]),
+        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:], es_[F:]),
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
 
@@ -685,6 +690,10 @@ class SubbandElkoBeamformer(SubbandBase):
         late on the calibration's held weights, see ``_delayed_betas``).
     beta_lam, beta_fast_frames : ``"delayed"``'s average factor per learned frame (0.9) and its start-up
         stand-in's length in learned frames per bin (0: none).
+    beta_level_db, beta_floor_s : ``"delayed"`` only (opt-in, default None): each judged cell's learning weight
+        times ``min(1, g floor / P)^2``, ``P`` the cell's level, ``floor`` the minimum of its smoothed level
+        over the last ``beta_floor_s`` (3 s), ``g`` this many dB (:func:`_level_weights`): a loud cell the
+        talker-blind rule missed then weighs as ``1 / P``, not ``P``.
     fast_ahead_s : the start-up stand-ins (``mix_fast_cells``, ``beta_fast_frames``) learn a frame only once
         this much after it was heard quiet too (default 0: at once; at most ``level_ahead_s``).
     fast_blend : the stand-ins hand over to the delayed estimates linearly in the learned count (``quick +
