@@ -419,6 +419,8 @@ _BUILTINS = (
     ("mic-calibration", "enhancers.mic_calibration:MicCalibration"),
     ("eb-robust", "enhancers.robust_eb:RobustElkoBeamformer"),
     ("eb-robust-ss", "enhancers.robust_eb:EbRobustSs"),
+    ("eb-robust-blind", "enhancers.robust_eb:TalkerBlindRobustEb"),
+    ("eb-robust-blind-ss", "enhancers.robust_eb:EbRobustBlindSs"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)

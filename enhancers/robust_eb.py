@@ -55,6 +55,7 @@ followed by ``ss`` (a :class:`enhancers.chain.Chain`, prefixes ``eb`` and ``ss``
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -69,11 +70,12 @@ from enhancers.mic_calibration import (
     calibration_masks_step,
     calibration_trace,
 )
+from enhancers.presets import EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
 from enhancers.subband_eb import SubbandBase, SubbandEbParams, subband_init
 from scenesim.errors import ParameterError
 from scenesim.validate import check_range
 
-__all__ = ["EbRobustSs", "RobustElkoBeamformer"]
+__all__ = ["EbRobustBlindSs", "EbRobustSs", "RobustElkoBeamformer", "TalkerBlindRobustEb"]
 
 
 class RobustElkoBeamformer(SubbandBase):
@@ -172,3 +174,41 @@ class EbRobustSs(Chain):
     version = "1"
     summary = "robust sub-band beamformer (calibration, noise-aware EQ) followed by spectral subtraction"
     stages = (("eb", "eb-robust"), ("ss", "ss"))
+
+
+def _with_defaults(params_cls: type, owner: str, defaults: dict) -> type:
+    """A frozen dataclass subclass of ``params_cls`` whose fields named in ``defaults`` default to those values
+    (checked by the parent's ``__post_init__``); pickled as ``<module>.<owner>.Params``."""
+    types = {f.name: f.type for f in dataclasses.fields(params_cls)}
+    namespace = {"__annotations__": {k: types[k] for k in defaults}, "__module__": __name__,
+                 "__qualname__": f"{owner}.Params", **defaults}
+    return dataclass(frozen=True)(type("Params", (params_cls,), namespace))
+
+
+class TalkerBlindRobustEb(RobustElkoBeamformer):
+    """``eb-robust`` learning only where the talker is absent (``"eb-robust-blind"``, issue 16).
+
+    The same algorithm and fields as ``eb-robust``, with the defaults of
+    :data:`enhancers.presets.EB_ROBUST_BLIND` (what it changes and what it measured is there).
+
+    >>> import enhancers
+    >>> e = enhancers.make("eb-robust-blind")
+    >>> e.params.beta_model, e.params.frame_start_s, enhancers.make("eb-robust").params.beta_model
+    ('delayed', 0.13, 'bin')
+    """
+
+    name: ClassVar[str] = "eb-robust-blind"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "eb-robust that learns only where the talker is absent (issue 16: talker-blind)"
+    Params = _with_defaults(RobustElkoBeamformer.Params, "TalkerBlindRobustEb", EB_ROBUST_BLIND)
+
+
+class EbRobustBlindSs(Chain):
+    """``eb-robust-blind`` then ``ss`` with its gain averaged over bins and frames (``"eb-robust-blind-ss"``;
+    the ss stage's defaults are :data:`enhancers.presets.EB_ROBUST_BLIND_SS`)."""
+
+    name = "eb-robust-blind-ss"
+    version = "1"
+    summary = "talker-blind robust beamformer followed by spectral subtraction with an averaged gain"
+    stages = (("eb", "eb-robust-blind"), ("ss", "ss"))
+    stage_defaults = {"ss": EB_ROBUST_BLIND_SS}

@@ -65,6 +65,26 @@ def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
     assert _make("ss", False).params == make("ss").params
 
 
+def test_registered_blind_systems_are_the_settled_setting():
+    """``eb-robust-blind`` and ``eb-robust-blind-ss`` (the registry's names) are what ``--frame-settled``
+    measures: the same parameters on every stage, and the same output as the script's chain on a mixture
+    (exactly: one computation).  Control: ``eb-robust-ss``'s output differs."""
+    import numpy as np
+
+    from benchmarks.perf.calibration_jitter import COMBINED_SS, FRAME_SETTLED, _make
+    from enhancers.registry import make
+
+    measured = _make("eb-robust-ss", False, FRAME_SETTLED, COMBINED_SS)
+    named = make("eb-robust-blind-ss")
+    fields = named.params.eb.to_dict()
+    assert fields == make("eb-robust-blind").params.to_dict() == make("eb-robust", **FRAME_SETTLED).params.to_dict()
+    assert named.params.ss == measured.params.ss and fields == measured.params.eb.to_dict()
+    x = np.random.default_rng(3).standard_normal((2, 12000))
+    y = named.process(x, 16000).output
+    np.testing.assert_array_equal(y, measured.process(x, 16000).output)
+    assert np.abs(y - make("eb-robust-ss").process(x, 16000).output).max() > 1e-3
+
+
 def test_combined_setting_is_every_piece_under_the_explicit_values():
     """``--combined``: :data:`COMBINED` for ``eb-robust`` and :data:`COMBINED_SS` for the ``ss`` stage, with
     ``--set`` / ``--ss`` winning; without it only the explicit values."""
@@ -74,7 +94,8 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False, frame_taper=False)
+                    frame_delayed=False, frame_smooth=False, frame_taper=False,
+                    frame_settled=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
@@ -92,7 +113,8 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     with the frame rule and the delayed DAS weight), :data:`FRAME_LOWSNR`, :data:`FRAME_DELAYED` (that with beta
     learned late: only the beta, freeze and stand-in fields change, the rest is added) or :data:`FRAME_SMOOTH`
     (that with fields added and the SNR share's range moved) or :data:`FRAME_TAPER` (``--frame-taper``: that with
-    the graded edges added and three start-up fields changed) for ``eb-robust``, :data:`COMBINED_SS` for the
+    the graded edges added and three start-up fields changed) or :data:`FRAME_SETTLED` (``--frame-settled``: that
+    with the rule's first 0.13 s untrusted) for ``eb-robust``, :data:`COMBINED_SS` for the
     ``ss`` stage, ``--set`` winning; all valid ``eb-robust`` parameter sets."""
     import argparse
 
@@ -102,6 +124,7 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         FRAME,
         FRAME_DELAYED,
         FRAME_LOWSNR,
+        FRAME_SETTLED,
         FRAME_SMOOTH,
         FRAME_TAPER,
         mode_params,
@@ -110,7 +133,8 @@ def test_frame_settings_are_combined_with_the_frame_rule():
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False, frame_taper=False)
+                    frame_delayed=False, frame_smooth=False, frame_taper=False,
+                    frame_settled=False)
         return argparse.Namespace(**{**base, **kw})
 
     over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
@@ -135,7 +159,16 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     changed = ("mix_fast_ramp_cells", "mix_alpha0", "frame_snr_frames")
     assert {k: v for k, v in FRAME_TAPER.items() if k in FRAME_SMOOTH and k not in changed} == \
         {k: v for k, v in FRAME_SMOOTH.items() if k not in changed}
-    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH, FRAME_TAPER):
+    over, ss = mode_params(args(frame_settled=True, frame_taper=True))
+    assert over == FRAME_SETTLED and ss == COMBINED_SS
+    assert FRAME_SETTLED == {**FRAME_TAPER, "frame_start_s": 0.13} and FRAME_TAPER["frame_start_s"] == 0.05
+    from enhancers.presets import (  # the registered eb-robust-blind(-ss)
+        EB_ROBUST_BLIND,
+        EB_ROBUST_BLIND_SS,
+    )
+
+    assert EB_ROBUST_BLIND == FRAME_SETTLED and EB_ROBUST_BLIND_SS == COMBINED_SS
+    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH, FRAME_TAPER, FRAME_SETTLED):
         make("eb-robust", **params)
 
 
