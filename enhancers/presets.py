@@ -14,8 +14,9 @@ Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` aga
 ``speech_jitter_db`` at >= 15 dB input worst -30.7 / -30.9 dB (``../shared/data`` / built-in; ``eb-robust-ss``
 -1.2 / -7.7 dB), replay and Hagerman SNR-I within 3 dB on every row, mean SNR-I per noise within 1 dB of
 ``eb-robust-ss`` (built-in factory -0.75 dB, the closest), issue 12's mismatch loss 1.07 / 1.82 / 0.35 dB at
-135 / 240 deg / diffuse.  Its cost: ``eb-robust``'s compiled kernel does not cover it (the numpy path is
-about 12 times slower), and the margins are thin (the README's issue-16 paragraph).
+135 / 240 deg / diffuse.  Its cost: ``eb-robust``'s compiled kernel does not cover it (the numpy step: batch
+real-time factor 0.038 against 0.003, ``benchmarks.perf.enhancer_rtf``), and the margins are thin (the
+README's issue-16 paragraph).
 
 >>> EB_ROBUST_BLIND["frame_start_s"], EB_ROBUST_BLIND["beta_model"], EB_ROBUST_BLIND_SS["gain_smooth"]
 (0.13, 'delayed', 0.55)

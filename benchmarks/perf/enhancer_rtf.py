@@ -35,7 +35,8 @@ TARGET_BATCH, TARGET_STREAM = 0.005, 0.05
 #: Streaming CPU time over batch CPU time of the same enhancer, at most (issue 20).
 TARGET_STREAM_OVER_BATCH = 5.0
 #: Batch targets other than TARGET_BATCH (issue 12: the robust cascade runs three stages on one filter bank + SS).
-TARGET_BATCH_OF = {"eb-subband": 0.01, "eb-robust": 0.01, "eb-robust-ss": 0.01}
+TARGET_BATCH_OF = {"eb-subband": 0.01, "eb-robust": 0.01, "eb-robust-ss": 0.01, "eb-robust-blind": 0.01,
+                   "eb-robust-blind-ss": 0.01}
 #: Targets of the peers behind extras (issue 19): DeepFilterNet3 is a neural network, WPE
 #: an offline least-squares filter per frequency; the learned peer's streaming target is 0.2.
 TARGET_STREAM_OF = {"dfn3": 0.2, "eb-robust-dfn3": 0.2}
@@ -44,7 +45,7 @@ TARGET_BATCH_OF.update({"dfn3": 0.2, "eb-robust-dfn3": 0.2, "wpe": 0.5, "wpe-eb-
 
 #: The built-in systems (the peers, whose packages are optional, are added when installed).
 BUILT_IN = ("passthrough", "eb", "eb-gated", "cardioid", "hypercardioid", "das", "ss", "ss-ms2001", "eb-ss",
-            "eb-subband", "mic-calibration", "eb-robust", "eb-robust-ss")
+            "eb-subband", "mic-calibration", "eb-robust", "eb-robust-ss", "eb-robust-blind", "eb-robust-blind-ss")
 
 
 def _make(name: str):
