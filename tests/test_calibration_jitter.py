@@ -85,6 +85,20 @@ def test_registered_blind_systems_are_the_settled_setting():
     assert np.abs(y - make("eb-robust-ss").process(x, 16000).output).max() > 1e-3
 
 
+def test_first_seed_picks_seeds_past_the_presets_own(monkeypatch):
+    """``--first-seed 5 --seeds 2``: the conditions of seeds 5 and 6 (phones and utterances the settings were not
+    tuned on), every other axis as given; by default seeds 0 .. N-1 of the preset itself."""
+    import benchmarks.perf.calibration_jitter as cj
+
+    seen = []
+    monkeypatch.setattr(cj, "measure_condition", lambda cond, *a, **k: seen.append(cond) or [])
+    cj.phone_rows(None, seeds=2, snrs=[25.0], noises=["wind"], first_seed=5)
+    assert sorted(c.seed for c in seen) == [5, 6] and {(c.noise, c.snr_db) for c in seen} == {("wind", 25.0)}
+    seen.clear()
+    cj.phone_rows(None, seeds=5, snrs=[25.0], noises=["wind"])
+    assert seen == [c for c in load_sweep("phone").conditions() if c.noise == "wind" and c.snr_db == 25.0]
+
+
 def test_combined_setting_is_every_piece_under_the_explicit_values():
     """``--combined``: :data:`COMBINED` for ``eb-robust`` and :data:`COMBINED_SS` for the ``ss`` stage, with
     ``--set`` / ``--ss`` winning; without it only the explicit values."""

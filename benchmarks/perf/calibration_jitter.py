@@ -34,7 +34,8 @@ back at the stream start (:data:`FRAME_TAPER`); ``--frame-settled``: that with t
 only once a noise field that starts with the stream has built up (:data:`FRAME_SETTLED`).
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
-``--snrs`` given), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
+``--snrs`` given; ``--first-seed K``: seeds ``K .. K + N - 1`` instead -- phones and utterances the settings
+were not tuned on, e.g. ``--first-seed 5``), for ``eb-robust`` and ``eb-robust-ss``, each run twice -- on ``s + n``
 (operation ``W1``) and on ``s - n`` (``W2``), Hagerman & Olofsson's pair -- it prints:
 
 1. ``speech_jitter_db`` (:func:`benchmarks.metrics.distortion.speech_jitter_db` of ``W1 s`` and ``W2 s``,
@@ -258,10 +259,12 @@ def swap_jitter(cond, data_dir, params: dict) -> dict[str, float]:
 
 
 def phone_rows(data_dir, *, seeds: int, snrs=None, noises=None, blind: bool = False, overrides=None,
-               progress=False, names=SYSTEMS, ss=None, pesq: bool = False) -> list[dict]:
+               progress=False, names=SYSTEMS, ss=None, pesq: bool = False, first_seed: int = 0) -> list[dict]:
+    """The rows of ``phone``'s conditions with seeds ``first_seed .. first_seed + seeds - 1`` (the preset's seed
+    list extended as ``bench run --seeds`` does), ``snrs`` and ``noises`` (None: all)."""
     rows = []
-    for cond in load_sweep("phone").conditions():
-        if cond.seed >= seeds or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
+    for cond in load_sweep("phone").with_seeds(first_seed + seeds).conditions():
+        if cond.seed < first_seed or (snrs and cond.snr_db not in snrs) or (noises and cond.noise not in noises):
             continue
         rows += measure_condition(cond, data_dir, names, blind=blind, overrides=overrides, ss=ss, pesq=pesq)
         if progress:
@@ -401,6 +404,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data-dir", default=None, help="real recordings (default: the built-in synthetic data)")
     ap.add_argument("--seeds", type=int, default=5, help="the phone preset's first N seeds (default 5)")
+    ap.add_argument("--first-seed", type=int, default=0,
+                    help="start at this seed instead of 0 (e.g. 5: seeds the settings were not tuned on)")
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
     ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
@@ -436,13 +441,15 @@ def main(argv=None) -> int:
     except ValueError as e:
         ap.error(str(e))  # one line and the usage, exit status 2
     rows = phone_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, noises=args.noises, blind=args.blind,
-                      overrides=overrides, progress=True, names=tuple(args.systems), ss=ss, pesq=args.pesq)
+                      overrides=overrides, progress=True, names=tuple(args.systems), ss=ss, pesq=args.pesq,
+                      first_seed=args.first_seed)
     baseline = None
     if args.baseline:
         with open(args.baseline) as f:
             baseline = json.load(f)
     mode = ("talker-blind " if args.blind else "defaults ") + json.dumps(_params(args.blind, overrides))
-    print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, {len(rows) // len(args.systems)} "
+    print(f"phone, data: {args.data_dir or 'built-in'}, seeds {args.first_seed}..{args.first_seed + args.seeds - 1}, "
+          f"{len(rows) // len(args.systems)} "
           f"conditions, calibration: {mode}, ss stage: {json.dumps(ss)}")
     print_tables(rows, baseline)
     if args.save_baseline:
