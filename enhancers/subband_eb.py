@@ -96,6 +96,7 @@ from enhancers.stft_stage import (
     GateState,
     StftEnhancer,
     StftParams,
+    _running_min,
     bin_omega,
     gate_init,
     ratio_gate,
@@ -134,7 +135,7 @@ class SubbandState:
     mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
     mix_pend: tuple | None = None  # mix_model="delayed": the last frames' (Y, D, p1), (D, K) each, not yet judged
     mix_fast: tuple | None = None  # mix_fast_cells: the start-up weight's averages (as alpha, p_d, p_m, mix_n)
-    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open, |X1|^2), (D, K) each
+    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open[, |X1|^2]), (D, K) each
     beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
     beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
     beta_floor_tail: np.ndarray | None = None  # beta_level_db: the last frames' smoothed |X1|^2, (W - 1, K)
@@ -260,7 +261,7 @@ def _level_weights(p_frames, p_now, tail, *, n_window: int, knee_db: float):
     if p_now.shape[0] == 0:  # a block shorter than a hop
         return np.ones(p_frames.shape), tail
     seq = np.concatenate([tail, p_now])
-    floor = np.lib.stride_tricks.sliding_window_view(seq, n_window, axis=0).min(axis=-1)  # (F, K)
+    floor = _running_min(seq, n_window)  # (F, K)
     ratio = (10.0 ** (knee_db / 10.0) * floor + TINY) / (p_frames + TINY)
     return np.minimum(1.0, ratio) ** 2, seq[seq.shape[0] - (n_window - 1):]
 
@@ -539,8 +540,9 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         p1 = smooth_frames(X1.real**2 + X1.imag**2, float(p.lam), sub.p_1) if F else np.zeros((0, K))
         open_ = np.ones((F, K)) if frozen is None else (~frozen).astype(float)
         n_ahead = p.look_ahead_frames(fs)  # (eb-robust's calibration parameters)
-        e1 = X1.real**2 + X1.imag**2
-        fs_, bs_, ps_, os_, es_ = _pending(sub.beta_pend, (cF, cB, p1, open_, e1), n_ahead)
+        # beta_level_db: the frames' own |X1|^2 wait with them (only then: the default path does no extra work)
+        own = (X1.real**2 + X1.imag**2,) if p.beta_level_db is not None else ()
+        fs_, bs_, ps_, os_, *es_ = _pending(sub.beta_pend, (cF, cB, p1, open_, *own), n_ahead)
         held, now = learn
         zeros = [np.zeros(K)] * 4
         # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
@@ -553,8 +555,9 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             n_window = max(1, int(math.ceil(float(p.beta_floor_s) * fs / int(p.hop))))
             # the cell's level: its own power, or the smoothed one where that is higher (it lags an onset,
             # the raw one a decay's echo in the window)
-            level, values["beta_floor_tail"] = _level_weights(np.maximum(es_[:F], ps_[:F]), p1, sub.beta_floor_tail,
-                                                              n_window=n_window, knee_db=float(p.beta_level_db))
+            level, values["beta_floor_tail"] = _level_weights(np.maximum(es_[0][:F], ps_[:F]), p1,
+                                                              sub.beta_floor_tail, n_window=n_window,
+                                                              knee_db=float(p.beta_level_db))
             learned = learned * level
         betas, *st = pooled_mix_step(fs_[:F], bs_[:F], ps_[:F], learned, *st, **kw)
         if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
@@ -564,7 +567,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
             betas = _hand_over(quick, betas, n_before, float(p.beta_fast_frames), p.fast_blend)
             values["beta_fast"] = tuple(fast)
-        values.update(beta_ls=tuple(st), beta_pend=(fs_[F:], bs_[F:], ps_[F:], os_[F:], es_[F:]),
+        values.update(beta_ls=tuple(st), beta_pend=tuple(a[F:] for a in (fs_, bs_, ps_, os_, *es_)),
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
 
