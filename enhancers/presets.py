@@ -12,12 +12,12 @@ stage: the gain averaged over neighbouring bins and frames, so that ss's own gai
 
 Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` against ``eb-robust-ss``:
 ``speech_jitter_db`` at >= 15 dB input worst -30.7 / -30.9 dB (``../shared/data`` / built-in; ``eb-robust-ss``
--1.2 / -7.7 dB), replay and Hagerman SNR-I within 3 dB on every row, mean SNR-I per noise within 1 dB of
+-1.2 / -8.0 dB), replay and Hagerman SNR-I within 3 dB on every row, mean SNR-I per noise within 1 dB of
 ``eb-robust-ss`` (built-in factory -0.75 dB, the closest), issue 12's mismatch loss 1.07 / 1.82 / 0.35 dB at
-135 / 240 deg / diffuse.  Those are the seeds it was tuned on: on seeds 5-9 6 / 7 rows of 60 are above -30 dB
-(worst -17.2 / -20.1; ``eb-robust-ss`` -5.8 / -6.9).  Its cost: ``eb-robust``'s compiled kernel does not cover it (the numpy step: batch
-real-time factor 0.038 against 0.003, ``benchmarks.perf.enhancer_rtf``), and the margins are thin (the
-README's issue-16 paragraph).
+135 / 240 deg / diffuse.  Those are the seeds it was tuned on: on seeds 5-9, 6 / 7 rows of 60 are above
+-30 dB (worst -17.2 / -20.1; ``eb-robust-ss`` -5.8 / -6.9).  Its cost: ``eb-robust``'s compiled kernel does
+not cover it (the numpy step: batch real-time factor 0.038 against 0.003, ``benchmarks.perf.enhancer_rtf``),
+and the margins are thin (the README's issue-16 paragraph).
 
 >>> EB_ROBUST_BLIND["frame_start_s"], EB_ROBUST_BLIND["beta_model"], EB_ROBUST_BLIND_SS["gain_smooth"]
 (0.13, 'delayed', 0.55)
