@@ -392,7 +392,11 @@ dB on the built-in data (worst -17.2: factory 25 dB seed 9, the DAS weight, -17.
 ``../shared/data`` (worst -20.1: hall 25 dB seed 8, the calibration, -21.4), against -5.8 / -6.9 dB for the
 default; agreement 99 / 100 %, SNR-I vs the default +0.22 / -0.26 / +2.20 / +0.63 and +0.31 / +0.36 / +2.14 /
 -0.44 dB.  Each remaining row has its own quantity (babble 25 dB seed 9: beta, -25.8), as every round found:
-the rules learn from far fewer talker frames than the default, not from none.
+the rules learn from far fewer talker frames than the default, not from none.  The worst is the DAS weight's
+stand-in learning the talker's onset frame (27 dB over the noise below 1 kHz) in one run only: weighing its
+frames by their level as ``beta_level_db`` does beta's (tried, not kept) takes that row to -49.6 dB, but costs
+factory 2.1 / 3.2 dB of SNR-I (shared / built-in, both estimates, 6 dB knee) or 1.3-1.5 dB built-in (the
+stand-in alone, 10-15 dB knee): the machine's hits it learns the null from are as loud as the onset.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
