@@ -1193,6 +1193,7 @@ def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *
         q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
         # cal_rear_lam: a slower smoother averages the talker x noise cross term in P_F over more frames
         lam = rule["lam"] if p.cal_rear_lam is None else float(p.cal_rear_lam)
+        # the state's pf holds P_B and pb holds P_F, as power_ratio_gate(pB, pF) of the hard rule stores them
         sb, sf = smooth_frames(pB, lam, q.pf), smooth_frames(pF, lam, q.pb)
         rear = 10.0 * np.log10((sb + TINY) / (sf + TINY))
         changes["q_rear"] = GateState(pf=sb[-1].copy(), pb=sf[-1].copy()) if len(rear) else q
