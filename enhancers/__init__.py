@@ -8,11 +8,19 @@
 Algorithm modules are imported only when an enhancer is first used (registry entries
 are ``"module:Class"`` strings); third-party plugins come from the entry-point group
 ``scenesim.enhancers``.
+
+The modules live in floors by job, each importing only the floors beneath it:
+``core`` (contract, registry, chain, filter bank, STFT stage, EQ) < ``kernels`` (numba copies) <
+``single`` (SS, noise trackers, MMSE-LSA) < ``beam`` (differential, EB, sub-band, calibration, robust,
+superdirective, baselines) < ``peers`` (black-box wrappers); ``enhancers.testing`` (the conformance
+suite) sits on top. The flat paths of earlier releases (``enhancers.eb``) still import, with a
+``DeprecationWarning`` (:mod:`enhancers._aliases`).
 """
 
-from enhancers.base import Enhancer, Params, Result, Tags
-from enhancers.chain import Chain, chain_class
-from enhancers.registry import (
+from enhancers import _aliases
+from enhancers.core.base import Enhancer, Params, Result, Tags
+from enhancers.core.chain import Chain, chain_class
+from enhancers.core.registry import (
     EnhancerNotFound,
     available,
     describe,
@@ -21,6 +29,8 @@ from enhancers.registry import (
     register,
     with_geometry,
 )
+
+_aliases.install()
 
 __all__ = [
     "Chain",

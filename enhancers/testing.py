@@ -48,9 +48,9 @@ from collections.abc import Callable, Iterator, Mapping
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params
-from enhancers.chain import hop_of
-from enhancers.registry import get, make, with_geometry
+from enhancers.core.base import Enhancer, Params
+from enhancers.core.chain import hop_of
+from enhancers.core.registry import get, make, with_geometry
 from scenesim.errors import ParameterError, ScenesimError
 
 __all__ = [

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.validate import check_finite_number, check_int, check_positive, check_signal
 
 

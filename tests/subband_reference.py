@@ -1,7 +1,7 @@
 """Slow, obviously correct references (loops over frames and bins) for the STFT-domain EB stages.
 
-Written from the equations in the docstrings of :mod:`enhancers.subband_eb` and
-:mod:`enhancers.mic_calibration`, without numpy vectorisation or scipy filters, so the
+Written from the equations in the docstrings of :mod:`enhancers.beam.subband_eb` and
+:mod:`enhancers.beam.mic_calibration`, without numpy vectorisation or scipy filters, so the
 vectorised implementations can be checked against them to rounding.
 """
 

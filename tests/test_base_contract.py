@@ -1,11 +1,11 @@
-"""The base enhancer contract: strict construction and params round trip (enhancers/base.py)."""
+"""The base enhancer contract: strict construction and params round trip (enhancers/core/base.py)."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.errors import ParameterError
 from scenesim.validate import check_positive
 
@@ -50,7 +50,7 @@ def test_params_json_round_trip_restores_tuples():
 def test_params_json_round_trip_restores_an_optional_tuple():
     """A ``tuple | None`` field whose default is None (``eb-robust``'s ``mix_bands_hz``, set by the registered
     ``eb-robust-blind``) comes back from JSON as the tuple, not the list JSON gives (which its check refuses)."""
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     params = make("eb-robust", mix_bands_hz=(1000.0, 4000.0)).params
     assert type(params).from_json(params.to_json()) == params

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from enhancers.baselines import DelayAndSum, Passthrough, fractional_delay_fir
-from enhancers.registry import make
+from enhancers.beam.baselines import DelayAndSum, Passthrough, fractional_delay_fir
+from enhancers.core.registry import make
 from enhancers.testing import stream
 from scenesim.errors import ParameterError
 

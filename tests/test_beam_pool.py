@@ -1,6 +1,6 @@
-"""Pooled beta (one rear direction per band) and pooled DAS mix weight (:mod:`enhancers.beam_pool`).
+"""Pooled beta (one rear direction per band) and pooled DAS mix weight (:mod:`enhancers.beam.beam_pool`).
 
-Oracles: eq. 1 of :mod:`enhancers.subband_eb` written out here (``sin(wT(1+c)/2) / sin(wT(1-c)/2)``),
+Oracles: eq. 1 of :mod:`enhancers.beam.subband_eb` written out here (``sin(wT(1+c)/2) / sin(wT(1-c)/2)``),
 its derivative by central finite differences, the closed-form DAS weight (1 in noise that is
 incoherent between the mics, 0 for a rear plane wave the differential null removes) and the
 look-direction null depth of issue 12 (>= 30 dB for one rear plane wave).
@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from signals import C_MPS, FS, SPACING_M, plane_wave_pair
 
-from enhancers import fast_frames
-from enhancers.beam_pool import (
+from enhancers.beam.beam_pool import (
     band_onehot,
     beta_from_cos,
     dbeta_dcos,
     direction_beta_step,
     pooled_mix_step,
 )
-from enhancers.registry import make
+from enhancers.core.registry import make
+from enhancers.kernels import frames as fast_frames
 
 N = 4 * FS
 NFFT = 256

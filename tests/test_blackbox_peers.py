@@ -16,7 +16,7 @@ import soundfile
 from scipy.signal import lfilter
 
 from benchmarks.metrics import speech as M
-from enhancers.blackbox import FramedBlackBox, Resampler16to48, _lowpass
+from enhancers.peers.blackbox import FramedBlackBox, Resampler16to48, _lowpass
 from enhancers.testing import stream
 
 FS = 16000
@@ -130,7 +130,7 @@ def _noise_attenuation(e, rng):
 @pytest.fixture
 def webrtc():
     pytest.importorskip("webrtc_noise_gain", reason="optional extra not installed: pip install -e '.[webrtc]'")
-    from enhancers.webrtc_ns import WebrtcNoiseSuppression
+    from enhancers.peers.webrtc_ns import WebrtcNoiseSuppression
 
     return WebrtcNoiseSuppression
 
@@ -159,7 +159,7 @@ def test_webrtc_latency_and_snr_improvement_on_speech(webrtc, rng, shared_data_d
 @pytest.fixture
 def rnnoise():
     pytest.importorskip("pyrnnoise", reason="optional extra not installed: pip install -e '.[rnnoise]'")
-    from enhancers.rnnoise import RNNoise
+    from enhancers.peers.rnnoise import RNNoise
 
     return RNNoise
 
@@ -191,7 +191,7 @@ def test_bench_list_says_how_to_install_absent_peers():
         "from benchmarks.cli.main import main\n"
         "main(['bench', 'list'])\n"
         "import enhancers\n"
-        "from enhancers.registry import EnhancerNotInstalled\n"
+        "from enhancers.core.registry import EnhancerNotInstalled\n"
         "try:\n    enhancers.make('rnnoise')\nexcept EnhancerNotInstalled as exc:\n    print('MAKE:', exc)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from data_recipes import noise_synthesis
-from enhancers import noise_tracking
+from enhancers.single import noise_tracking
 from scenesim.errors import ParameterError
 from scenesim.room import cache
 

@@ -54,7 +54,7 @@ def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
     """``--ss``: the parameters land on ``eb-robust-ss``'s ``ss`` stage (its ``eb`` stage keeps the given
     ``--set`` values and otherwise its defaults) and on ``ss`` run alone; without them both are the defaults."""
     from benchmarks.perf.calibration_jitter import _make
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     ss = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
     chain = _make("eb-robust-ss", False, {"calibrate": False}, ss)
@@ -72,7 +72,7 @@ def test_registered_blind_systems_are_the_settled_setting():
     import numpy as np
 
     from benchmarks.perf.calibration_jitter import COMBINED_SS, FRAME_SETTLED, _make
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     measured = _make("eb-robust-ss", False, FRAME_SETTLED, COMBINED_SS)
     named = make("eb-robust-blind-ss")
@@ -116,7 +116,7 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
     assert over == {**COMBINED, "mix_alpha0": 0.5, "mix_bands_hz": (500, 2000)}
     assert ss == {**COMBINED_SS, "gain_bins": 1}
     assert mode_params(args(set=["mu=0.02"])) == ({"mu": 0.02}, {})
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     make("eb-robust", **COMBINED)  # every field exists and is valid
     make("ss", **COMBINED_SS)
@@ -143,7 +143,7 @@ def test_frame_settings_are_combined_with_the_frame_rule():
         FRAME_TAPER,
         mode_params,
     )
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
@@ -176,7 +176,7 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     over, ss = mode_params(args(frame_settled=True, frame_taper=True))
     assert over == FRAME_SETTLED and ss == COMBINED_SS
     assert FRAME_SETTLED == {**FRAME_TAPER, "frame_start_s": 0.13} and FRAME_TAPER["frame_start_s"] == 0.05
-    from enhancers.presets import (  # the registered eb-robust-blind(-ss)
+    from enhancers.beam.presets import (  # the registered eb-robust-blind(-ss)
         EB_ROBUST_BLIND,
         EB_ROBUST_BLIND_SS,
     )

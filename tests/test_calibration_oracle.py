@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import enhancers
-import enhancers.mic_calibration as mc
+import enhancers.beam.mic_calibration as mc
 from benchmarks.perf.calibration_oracle import oracle_learning, oracle_mask, oracle_params
 
 FS = 16000
@@ -85,7 +85,7 @@ def test_frame_oracle_decides_whole_frames():
     import numpy as np
 
     from benchmarks.perf.calibration_oracle import oracle_mask
-    from enhancers.filterbank import FilterBank
+    from enhancers.core.filterbank import FilterBank
 
     fb = FilterBank(frame_len=256, hop=128)
     rng = np.random.default_rng(3)

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from _toy_enhancers import Delay, Gain, SumGeo
 
-from enhancers import registry
-from enhancers.chain import Chain, EbSs, chain_class
-from enhancers.registry import make, register, unregister, with_geometry
+from enhancers.core import registry
+from enhancers.core.chain import Chain, EbSs, chain_class
+from enhancers.core.registry import make, register, unregister, with_geometry
 from enhancers.testing import check_enhancer, stream
 from scenesim.errors import ParameterError
 
@@ -129,8 +129,8 @@ def test_stage_defaults_replace_the_stages_registry_defaults():
     """``stage_defaults``: ``eb-robust-blind-ss``'s ss stage defaults to its averaged gain; a stage dict's omitted
     keys take those (not plain ss's), and an explicit key wins.  A prefix the chain does not have is a one-line
     parameter error."""
-    from enhancers.chain import Chain
-    from enhancers.presets import EB_ROBUST_BLIND_SS
+    from enhancers.beam.presets import EB_ROBUST_BLIND_SS
+    from enhancers.core.chain import Chain
 
     ss = make("eb-robust-blind-ss").params.ss
     assert ss == make("ss", **EB_ROBUST_BLIND_SS).params != make("ss").params
@@ -179,7 +179,7 @@ def test_hop_is_lcm_of_stage_hops():
     """The streaming check uses the chain's hop: lcm of the stages' declared hops."""
     import math
 
-    from enhancers.chain import hop_of
+    from enhancers.core.chain import hop_of
 
     e = make("eb-ss")
     hops = [hop_of(s, FS) for s in e.stage_enhancers]

@@ -7,7 +7,7 @@ import pytest
 import soundfile as sf
 
 from benchmarks.cli.main import main
-from enhancers.registry import make
+from enhancers.core.registry import make
 
 FS = 16000
 

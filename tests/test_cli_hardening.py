@@ -200,7 +200,7 @@ def test_dask_hint_is_an_install_command_that_works_from_a_checkout(monkeypatch)
 
 
 def test_input_shorter_than_latency_warns(tmp_path, capsys):
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     latency = make("eb-ss").tags.latency_samples
     assert latency > 1

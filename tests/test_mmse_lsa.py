@@ -8,8 +8,8 @@ import pytest
 from scipy.special import exp1
 from signals import FS, harmonic_speechlike
 
-from enhancers.mmse_lsa import MmseLsa, dd_prior_snr, lsa_gain
-from enhancers.ss import SpectralSubtraction
+from enhancers.single.mmse_lsa import MmseLsa, dd_prior_snr, lsa_gain
+from enhancers.single.ss import SpectralSubtraction
 from scenesim.errors import ParameterError
 
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from enhancers.filterbank import FilterBank
-from enhancers.noise_tracking import (
+from enhancers.core.filterbank import FilterBank
+from enhancers.single.noise_tracking import (
     MS2001Config,
     calibrate_omin,
     ms1994_init,

@@ -14,15 +14,15 @@ from importlib import metadata
 import numpy as np
 import pytest
 
-from enhancers import registry
-from enhancers.registry import available, describe, make
+from enhancers.core import registry
+from enhancers.core.registry import available, describe, make
 from enhancers.testing import check_enhancer
 from scenesim.errors import PluginError
 
 PLUGIN_CODE = '''
 from dataclasses import dataclass
 import numpy as np
-from enhancers.base import Enhancer, Params, Result, Tags
+from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.errors import ParameterError
 from scenesim.validate import check_finite_number, check_signal
 
@@ -81,7 +81,7 @@ def plugin_path(tmp_path, monkeypatch):
     _write_distribution(tmp_path, "clashplug", "clashplug", "", {"das": "clashplug:Das"})
     _write_distribution(
         tmp_path, "passplug", "passplug",
-        "from enhancers.baselines import Passthrough\n"
+        "from enhancers.beam.baselines import Passthrough\n"
         "class Passthrough2(Passthrough):\n    version = '2'\n",
         {"passthrough@2": "passplug:Passthrough2"},
     )
@@ -122,7 +122,7 @@ def test_broken_plugin_names_its_package_and_error(plugin_path):
 
 
 def test_plugin_cannot_shadow_builtin(plugin_path):
-    assert make("das").__module__ == "enhancers.baselines"
+    assert make("das").__module__ == "enhancers.beam.baselines"
     assert "das[clashplug]" in available()
     with pytest.raises(PluginError, match="clashplug.*already registered"):
         make("das[clashplug]")
@@ -138,6 +138,6 @@ def test_plugin_adds_a_version_of_a_builtin_name(plugin_path):
     # Entry point "passthrough@2": the bare name now gives the latest version.
     assert make("passthrough").version == "2"
     assert type(make("passthrough")).__module__ == "passplug"
-    assert make("passthrough@1").__module__ == "enhancers.baselines"
+    assert make("passthrough@1").__module__ == "enhancers.beam.baselines"
     rows = [r for r in describe() if r["name"] == "passthrough"]
     assert sorted((r["version"], r["source"]) for r in rows) == [("1", "scenesim"), ("2", "passplug")]

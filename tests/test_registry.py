@@ -8,9 +8,9 @@ import sys
 import pytest
 from _toy_enhancers import Gain, SumGeo
 
-from enhancers import registry
-from enhancers.baselines import DelayAndSum, Passthrough
-from enhancers.registry import (
+from enhancers.beam.baselines import DelayAndSum, Passthrough
+from enhancers.core import registry
+from enhancers.core.registry import (
     EnhancerNotFound,
     available,
     describe,
@@ -54,7 +54,7 @@ def test_builtins_are_lazy():
     code = (
         "import sys, enhancers; enhancers.available(); "
         "print(sorted(m for m in sys.modules if m in "
-        "('enhancers.eb', 'enhancers.ss', 'enhancers.baselines', 'enhancers.filterbank')))"
+        "('enhancers.beam.eb', 'enhancers.single.ss', 'enhancers.beam.baselines', 'enhancers.core.filterbank')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

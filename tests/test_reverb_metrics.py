@@ -8,7 +8,7 @@ import pytest
 from benchmarks.metrics import speech as M
 from benchmarks.metrics.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
 from benchmarks.metrics.reverb import theory_drr_c50_db
-from enhancers.registry import make, with_geometry
+from enhancers.core.registry import make, with_geometry
 from scenesim.room.reverb_parts import speech_parts
 from scenesim.room.shoebox import ShoeBox
 from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images

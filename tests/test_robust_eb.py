@@ -1,6 +1,6 @@
 """``eb-robust`` (calibration + sub-band EB + noise-aware EQ) and ``eb-robust-ss``.
 
-Oracles: the white-noise-gain bound stated by :mod:`enhancers.eq` (output PSD of spatially white sensor
+Oracles: the white-noise-gain bound stated by :mod:`enhancers.core.eq` (output PSD of spatially white sensor
 noise <= 10^(eq_noise_gain_db/10) x one mic's, per bin), measured on the running enhancer; the mismatch
 applied by ``mismatch.apply_mismatch``; ``ss`` run on ``eb-robust``'s output for the cascade.
 """
@@ -12,9 +12,9 @@ import pytest
 from mismatch import apply_mismatch
 from signals import FS, plane_wave_pair
 
-from enhancers.chain import Chain
-from enhancers.eq import look_eq_gain, white_noise_factor
-from enhancers.registry import make
+from enhancers.core.chain import Chain
+from enhancers.core.eq import look_eq_gain, white_noise_factor
+from enhancers.core.registry import make
 
 NFFT = 256
 
@@ -416,7 +416,7 @@ FRAME_BETA = {**FRAME_DELAYED, "beta_model": "delayed"}
 
 def _beta_and_held(x, **params):
     """``eb-robust``'s beta trace over ``x`` and the calibration's held weights it learned with, ``(F, K)`` each."""
-    import enhancers.robust_eb as rb
+    import enhancers.beam.robust_eb as rb
 
     seen = []
     original = rb.calibration_masks_step
@@ -455,13 +455,13 @@ def test_delayed_beta_ignores_the_talker(beta_model, same):
 
 def test_delayed_beta_nulls_a_rear_plane_wave(rng):
     """Closed form (eq. 1): for one plane wave the forward and backward cardioids are real multiples of each
-    other, so the least-squares beta is :func:`enhancers.subband_eb.closed_form_beta` in every bin.  White noise
+    other, so the least-squares beta is :func:`enhancers.beam.subband_eb.closed_form_beta` in every bin.  White noise
     from 135 deg: within 0.03 of it over 500 Hz-4 kHz from 1 s on (measured 0.024, at 500 Hz, where the
     frame's window leaks; the per-bin NLMS measures the same 0.024).  Before the look ahead has passed
     beta is ``beta0`` exactly: the filter bank's first, partial frame is not learned, and a frame is learned 30
     frames (0.24 s) after it, when it has been judged, and applied from the next: beta moves first at frame
     1 + 30 + 1 = 32."""
-    from enhancers.subband_eb import closed_form_beta
+    from enhancers.beam.subband_eb import closed_form_beta
 
     x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=135)
     e = make("eb-robust", **FRAME_BETA, beta0=0.5)
@@ -478,7 +478,7 @@ def test_fast_start_stands_in_for_the_delayed_beta(rng):
     frames of a bin, a beta learned at once on the frames before the talker is first heard stands in -- within
     0.02 of the closed form over frames 12-31 (measured 0.016), where the delayed one still holds ``beta0`` --
     and from then on beta is the delayed one exactly (the same accumulators, to 1e-12)."""
-    from enhancers.subband_eb import closed_form_beta
+    from enhancers.beam.subband_eb import closed_form_beta
 
     x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=135)
     e = make("eb-robust", **FRAME_BETA, beta0=0.5)
@@ -528,7 +528,7 @@ def test_level_weights_keep_a_loud_burst_out_of_the_delayed_beta(rng):
     the 1.4 s after (measured 0.24); weighed with a knee 6 dB over the floor, less than 0.01 from the weighted
     burst-free trace (measured 0.007; 0.033 with the smoothed level alone, which lags the onset).
     With the knee at 60 dB no cell of the stationary noise is above it: the trace is the unweighted one exactly."""
-    from enhancers.subband_eb import closed_form_beta
+    from enhancers.beam.subband_eb import closed_form_beta
 
     x = plane_wave_pair(rng.standard_normal(3 * FS), az_deg=135)
     burst = np.zeros(3 * FS)

@@ -3,7 +3,7 @@
 Oracles: exact transfer functions (full-length FFT ratios; ``scipy.signal.freqz`` of the
 first-order section), the analog phase law ``atan(fc1/f) - atan(fc2/f)``, IEC 61672-1
 A-weighting table values, and the closed-form null depth of a differential pair under
-mismatch (:func:`enhancers.differential.mismatch_null_depth_db`, derived in its docstring).
+mismatch (:func:`enhancers.beam.differential.mismatch_null_depth_db`, derived in its docstring).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from scipy import signal as sps
 
 import enhancers
-from enhancers.differential import mismatch_null_depth_db
+from enhancers.beam.differential import mismatch_null_depth_db
 from scenesim.errors import ParameterError
 from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images, render_scene
 from scenesim.scene.sensors import (

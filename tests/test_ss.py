@@ -9,7 +9,7 @@ import pytest
 import soundfile
 from signals import FS, harmonic_speechlike
 
-from enhancers.ss import SpectralSubtraction, SpectralSubtractionMS2001, subtraction_gain
+from enhancers.single.ss import SpectralSubtraction, SpectralSubtractionMS2001, subtraction_gain
 from scenesim.errors import ParameterError
 
 CLASSES = [SpectralSubtraction, SpectralSubtractionMS2001]
@@ -195,7 +195,7 @@ def test_bin_average_and_gain_smoothing_closed_forms():
     """Oracles written out: a 4-bin row [1, 2, 4, 8] averaged over 3 mirrored bins is
     [(2+1+2)/3, (1+2+4)/3, (2+4+8)/3, (4+8+4)/3]; a unit step smoothed with b = 0.75 is 1 - 0.75^l
     after a first frame of 0."""
-    from enhancers.ss import average_over_bins, smooth_gain
+    from enhancers.single.ss import average_over_bins, smooth_gain
 
     np.testing.assert_allclose(average_over_bins(np.array([[1.0, 2.0, 4.0, 8.0]]), 1),
                                [[5 / 3, 7 / 3, 14 / 3, 16 / 3]], rtol=1e-15)

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 from signals import FS, harmonic_speechlike
 
-from enhancers.ss import SpectralSubtraction
+from enhancers.single.ss import SpectralSubtraction
 
 WARMUP_S = 2  # the minimum tracker's window is 1.5 s: skip it
 

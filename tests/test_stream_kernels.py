@@ -1,4 +1,4 @@
-"""The compiled per-block steps (enhancers.stream_kernels) against the numpy steps they replace.
+"""The compiled per-block steps (enhancers.kernels.stream) against the numpy steps they replace.
 
 Oracle: the numpy step of the same enhancer, reached by setting ``stream_kernels.MAX_BLOCK = 0``
 (every block then takes the numpy path, the one batch processing uses), on the same input cut
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from signals import FS, harmonic_speechlike, lowpass_noise, plane_wave_pair
 
-import enhancers.stream_kernels as sk
-from enhancers.registry import make
+import enhancers.kernels.stream as sk
+from enhancers.core.registry import make
 from scenesim.errors import ParameterError
 
 REL_TOL = 1e-12

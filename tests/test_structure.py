@@ -13,7 +13,7 @@ import scenesim.room.cache
 from benchmarks.excinfo import exc_text
 from benchmarks.metrics import evaluate
 from benchmarks.run import runner
-from enhancers.chain import hop_of
+from enhancers.core.chain import hop_of
 from scenesim.scene.mixing import noise_gain_for_snr, noise_gain_from_powers
 
 

@@ -14,8 +14,8 @@ from mismatch import apply_mismatch
 from signals import C_MPS, FS, SPACING_M, plane_wave_pair
 from subband_reference import subband_beta_reference
 
-from enhancers.registry import make
-from enhancers.subband_eb import SubbandElkoBeamformer, subband_beta_step, subband_init
+from enhancers.beam.subband_eb import SubbandElkoBeamformer, subband_beta_step, subband_init
+from enhancers.core.registry import make
 
 N = 4 * FS
 HALF = N // 2
@@ -140,7 +140,7 @@ def test_vectorised_update_matches_slow_reference(gate, rng):
 @pytest.mark.parametrize("name, kwargs", [
     ("eb-subband", dict(adapt_gate_db=3.0, gate_floor_s=0.1)),
     ("eb-robust", dict(beta_model="direction", beta_bands_hz=(1000.0,), beta_norm="learned", mix_bands_hz=(),
-                       mix_ramp_cells=100.0)),  # the pooled modes (enhancers.beam_pool)
+                       mix_ramp_cells=100.0)),  # the pooled modes (enhancers.beam.beam_pool)
 ])
 def test_gated_streaming_equals_batch(name, kwargs, rng):
     """With the per-bin gate on (or the pooled modes), blocks of 1, 97 and 128 samples equal batch to 1e-9

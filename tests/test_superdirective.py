@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from signals import C_MPS, FS, SPACING_M, lowpass_noise, plane_wave_pair
 
-from enhancers.superdirective import (
+from enhancers.beam.superdirective import (
     Superdirective,
     diffuse_coherence,
     directivity_db,

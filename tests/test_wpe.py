@@ -1,4 +1,4 @@
-"""Two-channel WPE (enhancers.wpe) against nara-wpe's own wpe_v7, its replay, and what it does to reverberation.
+"""Two-channel WPE (enhancers.peers.wpe) against nara-wpe's own wpe_v7, its replay, and what it does to reverberation.
 
 Skips with a reason when the optional package is absent (pip install -e '.[wpe]').
 """
@@ -20,7 +20,7 @@ from nara_wpe.wpe import wpe_v7  # noqa: E402
 import enhancers  # noqa: E402
 import scenesim  # noqa: E402
 from data_recipes.artificial_voice import artificial_voice  # noqa: E402
-from enhancers.wpe import Wpe  # noqa: E402
+from enhancers.peers.wpe import Wpe  # noqa: E402
 
 FS = 16000
 

@@ -223,7 +223,7 @@ def _list(args) -> int:
     import os
 
     from benchmarks.run.sweep import PRESETS, load_sweep
-    from enhancers.registry import describe
+    from enhancers.core.registry import describe
 
     print("Presets (scenesim bench run NAME):")
     for name in PRESETS:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file, options_named
-from enhancers.registry import get, make, with_geometry
+from enhancers.core.registry import get, make, with_geometry
 from scenesim.audio import read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS

@@ -4,7 +4,7 @@ The package holds everything the plugin contract asks for (contract.md, "The enh
 plugin contract"), as a working template to replace with one's own algorithm:
 
 * ``pyproject.toml`` registering the class under the ``scenesim.enhancers`` entry point,
-* ``<module>/enhancer.py``: an :class:`enhancers.base.Enhancer` with a frozen ``Params``
+* ``<module>/enhancer.py``: an :class:`enhancers.core.base.Enhancer` with a frozen ``Params``
   (one validated field), ``tags``, batch ``process`` with an exact ``replay``, and
   streaming ``init_state`` / ``process_block``,
 * ``tests/test_<module>.py`` running the conformance suite
@@ -68,7 +68,7 @@ def _check_name(name: str) -> str:
             f"a name whose class {cls!r} is no Python keyword and does not shadow a name the "
             f"template imports ({', '.join(sorted(_template_globals()))}); e.g. 'my-{name}'",
         )
-    from enhancers.registry import available
+    from enhancers.core.registry import available
 
     if name in available():
         raise ParameterError("NAME", name, "a name no installed enhancer uses (see 'scenesim bench list')")
@@ -149,7 +149,7 @@ _ENHANCER = '''\
 
 It scales the reference mic by ``gain_db``; replace ``_gain`` (and ``tags`` if your
 enhancer takes both mics, delays its output or needs the array geometry) with your
-algorithm.  The contract (``enhancers.base``): signals are float arrays
+algorithm.  The contract (``enhancers.core.base``): signals are float arrays
 ``(n_channels, n_samples)``; ``process`` returns a ``Result`` whose ``replay(component)``
 applies the same operation to a component of the input (speech or noise alone), which is
 how the benchmark measures output SNR; streaming output equals batch output.
@@ -162,7 +162,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
 from scenesim.validate import check_finite_number
 
 

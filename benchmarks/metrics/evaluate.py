@@ -326,7 +326,7 @@ def evaluate_enhancer(
 
     Parameters
     ----------
-    enhancer : enhancers.base.Enhancer
+    enhancer : enhancers.core.base.Enhancer
         Fed channel 0 if ``tags.channels_in == 1``, both mics if 2 (more is an error row).
     rendered : RenderedScene
         ``mixture, speech_image, noise_image (2, n)``, ``reference (1, n)``, ``fs``.

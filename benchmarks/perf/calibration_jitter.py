@@ -23,7 +23,7 @@ both systems; without it, their defaults.
 ``--direction``: the calibrated direction rule (:data:`DIRECTION`, issue 16's third round: the
 forward/backward cardioid ratio of the calibrated pair per bin, no level rule) instead.
 
-``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam_pool`).
+``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam.beam_pool`).
 ``--combined``: every talker-blind piece together (:data:`COMBINED`, :data:`COMBINED_SS`; measured there).
 ``--frame``: :data:`COMBINED` with the frame rule and the delayed DAS weight (:data:`FRAME`);
 ``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`);
@@ -61,7 +61,7 @@ Cost: every condition is rendered once and each system run twice (plus replays);
 ``phone`` (5 seeds, 90 conditions) takes a few minutes on one core.
 
 Measured with ``--ss power_bins=2 gain_bins=2 gain_smooth=0.55`` (ss's averaged gain,
-:mod:`enhancers.ss`; 1 December 2026, load average 8-10 on 2 cores, 5 seeds, built-in data / ``--data-dir
+:mod:`enhancers.single.ss`; 1 December 2026, load average 8-10 on 2 cores, 5 seeds, built-in data / ``--data-dir
 /work/shared/data``):
 
 * ss's own jitter (``--set calibrate=false adapt_gate_db=-60 mix_alpha0=1.0 --snrs 15 20 25``), worst /
@@ -91,22 +91,22 @@ from benchmarks.metrics.distortion import speech_jitter_db
 from benchmarks.perf.robust_eb import snr_improvements
 from benchmarks.run.sweep import load_sweep
 from benchmarks.run.worker import render_group
-from enhancers.registry import make, with_geometry
+from enhancers.core.registry import make, with_geometry
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0
-# the best opt-in setting measured (issue 16, second round: see enhancers/mic_calibration.py); the first
+# the best opt-in setting measured (issue 16, second round: see enhancers/beam/mic_calibration.py); the first
 # round's was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
 TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": True, "level_frontal_db": -1.0,
                 "beam_freeze": "level"}
 
-# the calibrated direction rule (issue 16, third round: enhancers/mic_calibration.py); the best of its
+# the calibrated direction rule (issue 16, third round: enhancers/beam/mic_calibration.py); the best of its
 # thresholds measured (-2 dB: the lowest jitter; it freezes almost every cell of diffuse or incoherent noise)
 DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0,
              "ramp_over_band": True, "beam_freeze": "level"}
 
-# pooled beta and DAS weight (issue 16 part 3, enhancers/beam_pool.py): one rear direction for the whole band
+# pooled beta and DAS weight (issue 16 part 3, enhancers/beam/beam_pool.py): one rear direction for the whole band
 # (normaliser over the learned cells only, step 0.015 per frame) and the DAS weight in three bands (0-1, 1-4, 4-8 kHz)
 # held near its prior until a band has learned 300 cells
 POOLED = {"beta_model": "direction", "mu": 0.015, "beta_norm": "learned", "mix_bands_hz": (1000.0, 4000.0),
@@ -130,10 +130,10 @@ COMBINED = {**POOLED, "mix_ramp_cells": 0.0, "model": "hp1", "eq_bound_beta": 0.
             "level_hang_s": 0.3, "level_ahead_s": 0.15, "beam_freeze": "cardioid"}
 COMBINED_SS = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
 
-# the frame rule (issue 16, fifth round; enhancers/mic_calibration.py): COMBINED with the level rule and the
+# the frame rule (issue 16, fifth round; enhancers/beam/mic_calibration.py): COMBINED with the level rule and the
 # cardioid rules replaced by ONE level-free decision per frame -- the forward/backward cardioid ratio over
 # 1-4 kHz above 5 dB, held 0.2 s after and 0.24 s before -- and the DAS weight learned on it, 0.24 s late
-# (mix_model="delayed"); measured in the module docstring of enhancers/mic_calibration.py
+# (mix_model="delayed"); measured in the module docstring of enhancers/beam/mic_calibration.py
 FRAME = {**COMBINED, "freeze_level_db": None, "frame_q_db": 5.0, "level_hang_s": 0.2, "level_ahead_s": 0.24,
          "beam_freeze": "das", "mix_model": "delayed"}
 # the same, giving SNR-I back: below ~6 dB estimated input SNR the calibration and the DAS weight learn on the

@@ -11,7 +11,7 @@ measures (jitter, replay SNR-I) plus the fraction of cells learned, and issue 12
 :mod:`benchmarks.perf.robust_eb`'s scene.  No enhancer in a sweep sees the mask.
 
 How: inside :func:`oracle_learning`, the calibration's freeze rules
-(:func:`enhancers.mic_calibration._freeze`) return the oracle's cells (both its cardioid and its level
+(:func:`enhancers.beam.mic_calibration._freeze`) return the oracle's cells (both its cardioid and its level
 masks), with no hold or look ahead (``level_hang_s = level_ahead_s = 0``), beta's own gate off
 (``adapt_gate_db=None``) and ``beam_freeze="both"``: the calibration, beta and the DAS weight learn
 on exactly the oracle's cells (``--scope all``).  ``--scope calibration``: only the calibration does;
@@ -32,7 +32,7 @@ and the mismatch loss is <= 0.2 dB (the built-in voice's pauses suffice).  Blind
 the cells in babble and factory where the -40 dB oracle finds 8-10 %.
 
 ``--frame``: the decision per *frame* (talker-to-noise power over 125 Hz-4 kHz, every bin alike), the one
-the frame rule of :mod:`enhancers.mic_calibration` makes blind; ``--frame-setting``: ``eb-robust`` as
+the frame rule of :mod:`enhancers.beam.mic_calibration` makes blind; ``--frame-setting``: ``eb-robust`` as
 :data:`benchmarks.perf.calibration_jitter.FRAME` around it (beta on its own gate, no hold).  Measured
 (``--data-dir ../shared/data --frame --frame-setting --threshold-db -10 --seeds 2 --mismatch-seeds 1``, 2
 December 2026, 45 s): ``eb-robust-ss`` worst jitter -35.9 / -32.3 / -34.1 / -38.9 dB (babble / factory /
@@ -51,7 +51,7 @@ import json
 import numpy as np
 
 import enhancers
-import enhancers.mic_calibration as mc
+import enhancers.beam.mic_calibration as mc
 from benchmarks.perf import calibration_jitter as cj
 from benchmarks.perf import robust_eb as rb
 from benchmarks.run.sweep import load_sweep
@@ -75,10 +75,10 @@ def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db:
     """``(F, K)`` bool, True where a cell must NOT be learned: talker-to-noise power over the mics at or
     above ``threshold_db`` (``speech``, ``noise``: ``(2, n)`` images; ``filterbank``: the enhancer's);
     ``frame``: per frame, the powers summed over :data:`FRAME_BAND_HZ`, every bin of the frame alike (the
-    decision the frame rule of :mod:`enhancers.mic_calibration` makes blind; ``fs``: the sample rate, Hz).
+    decision the frame rule of :mod:`enhancers.beam.mic_calibration` makes blind; ``fs``: the sample rate, Hz).
 
     >>> import numpy as np
-    >>> from enhancers.filterbank import FilterBank
+    >>> from enhancers.core.filterbank import FilterBank
     >>> rng = np.random.default_rng(0)
     >>> s = np.zeros((2, 4096)); s[:, 2048:] = 0.1 * rng.standard_normal((2, 2048))   # -20 dB from 2048 on
     >>> n = rng.standard_normal((2, 4096))
@@ -103,7 +103,7 @@ def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db:
 
 @contextlib.contextmanager
 def oracle_learning(mask: np.ndarray, *, calibration_only: bool = False):
-    """Within the block, :func:`enhancers.mic_calibration._freeze` returns ``mask``'s rows for the frames
+    """Within the block, :func:`enhancers.beam.mic_calibration._freeze` returns ``mask``'s rows for the frames
     it is asked about (counted from each stream's start), as both its cardioid and its level decision
     (``calibration_only``: as the level decision only, so that beta and the DAS weight keep their gate)."""
     original = mc._freeze

@@ -9,7 +9,7 @@ CPU time (``time.process_time``: every thread of the process) per second of audi
   upsampled once, before timing), one handle made before timing; also the calling thread's own
   CPU time (``time.thread_time``) and the process's thread count before and after, which show
   whether the library works in threads of its own (it does not: tract runs on the caller's thread).
-- **resampling alone**: :class:`enhancers.blackbox.Resampler16to48` up and down per 10 ms frame.
+- **resampling alone**: :class:`enhancers.peers.blackbox.Resampler16to48` up and down per 10 ms frame.
 - **dfn3 streaming**: ``process_block`` on 10 ms blocks, the state made before timing (steady
   state), and **with init**: ``init_state`` timed too (as ``enhancer_rtf`` times it), i.e. plus
   ``df_create`` (parsing and optimising the ONNX model, once per stream).
@@ -55,8 +55,8 @@ def _speech(data_dir: Path, seconds: float) -> np.ndarray:
 
 def library_alone(x16: np.ndarray, runs: int) -> dict:
     """CPU seconds per audio second of ``df_process_frame`` alone on ``x16`` upsampled once; thread facts."""
-    from enhancers.blackbox import Resampler16to48
-    from enhancers.dfn3 import _FLOAT_P, _lib, bundled_model
+    from enhancers.peers.blackbox import Resampler16to48
+    from enhancers.peers.dfn3 import _FLOAT_P, _lib, bundled_model
 
     lib, n_frames = _lib(), x16.size // FRAME
     frames = np.empty((n_frames, 3 * FRAME), dtype=np.float32)
@@ -90,7 +90,7 @@ def library_alone(x16: np.ndarray, runs: int) -> dict:
 def wrapper(x16: np.ndarray, runs: int) -> dict:
     """CPU RTFs of the resampling alone and of ``dfn3`` streaming, without and with ``init_state``."""
     import enhancers
-    from enhancers.blackbox import Resampler16to48
+    from enhancers.peers.blackbox import Resampler16to48
 
     seconds = x16.size / FS
     frames = [np.ascontiguousarray(x16[i:i + FRAME]) for i in range(0, x16.size - FRAME + 1, FRAME)]

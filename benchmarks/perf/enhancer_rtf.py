@@ -103,7 +103,7 @@ def _stream_time(e, x: np.ndarray, block: int, runs: int) -> tuple[float, float,
 
 def _installed_peers() -> list[str]:
     """The peer enhancers (issue 9) whose optional packages are installed."""
-    from enhancers.registry import EnhancerNotInstalled, get
+    from enhancers.core.registry import EnhancerNotInstalled, get
 
     peers = []
     for name in ("mmse-lsa", "superdirective", "webrtc-ns", "rnnoise", "dfn3", "eb-robust-dfn3", "wpe",

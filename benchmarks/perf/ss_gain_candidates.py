@@ -14,10 +14,10 @@ its speech and noise parts replayed (``F s``, ``F n``), and each candidate gain 
 * ``eb-robust``'s defaults, every SNR: mean replay SNR-I and narrow-band PESQ (MOS-LQO of the aligned
   output, as :func:`benchmarks.metrics.evaluate.evaluate_enhancer` scores it), as changes from ``default``.
 
-Candidates (:data:`CANDIDATES`): ``ss`` parameter sets (the averaged gain of :mod:`enhancers.ss`), and two
+Candidates (:data:`CANDIDATES`): ``ss`` parameter sets (the averaged gain of :mod:`enhancers.single.ss`), and two
 prototypes that were measured and rejected (:data:`PROTOTYPES`, not in ``ss``): the Berouti rule on
 the tracker's smoothed power, and an Ephraim-Malah decision-directed a-priori SNR feeding it.  The
-candidate numbers quoted in :mod:`enhancers.ss` were measured with a scratch copy of this computation
+candidate numbers quoted in :mod:`enhancers.single.ss` were measured with a scratch copy of this computation
 (1 December 2026, load average 2-10); this script reproduces its babble / 15 dB / seed 0 row for every
 candidate to the printed digits, and the chosen set's per-noise numbers equal ``calibration_jitter --ss``'s.
 Cost: the front end runs once per condition and front end; each candidate adds three ss runs and a PESQ
@@ -36,8 +36,8 @@ from benchmarks.metrics.distortion import speech_jitter_db
 from benchmarks.perf.calibration_jitter import _snr
 from benchmarks.run.sweep import load_sweep
 from benchmarks.run.worker import render_group
-from enhancers.registry import make, with_geometry
-from enhancers.ss import subtraction_gain
+from enhancers.core.registry import make, with_geometry
+from enhancers.single.ss import subtraction_gain
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 FIXED_FRONT_END = {"calibrate": False, "adapt_gate_db": -60.0, "mix_alpha0": 1.0}

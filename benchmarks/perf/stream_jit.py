@@ -1,4 +1,4 @@
-"""First-call cost of the compiled streaming steps (:mod:`enhancers.stream_kernels`, :mod:`enhancers.fast_frames`)
+"""First-call cost of the compiled streaming steps (:mod:`enhancers.kernels.stream`, :mod:`enhancers.kernels.frames`)
 in a fresh process.
 
     python -m benchmarks.perf.stream_jit [--only NAME ...]

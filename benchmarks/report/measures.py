@@ -219,7 +219,7 @@ def octave_figures(summary: Sequence[dict], report_dir: Path) -> list[Path]:
 def null_by_band(gain_db: float = 0.5, phase_deg: float = 2.0) -> dict[str, float]:
     """Null depth (dB re look) of the thesis' broadside plane wave under a mic mismatch, per octave.
 
-    ``cF - cB`` (beta = 1) at 270°, 2.14 cm pair (:func:`enhancers.differential.mismatch_null_depth_db`).
+    ``cF - cB`` (beta = 1) at 270°, 2.14 cm pair (:func:`enhancers.beam.differential.mismatch_null_depth_db`).
     A per-frequency ratio is the same before and after the look EQ; the EQ only changes how the
     broadband figure weights the bands: ``"white"`` is the unequalised output for white noise,
     ``"eq_speech"`` the equalised output for speech-shaped noise (LTASS, 100 Hz - 7 kHz).
@@ -229,7 +229,7 @@ def null_by_band(gain_db: float = 0.5, phase_deg: float = 2.0) -> dict[str, floa
     (-15, -23, 1)
     """
     from data_recipes.ltass import ltass_psd_db
-    from enhancers.differential import mismatch_null_depth_db, plane_wave_response
+    from enhancers.beam.differential import mismatch_null_depth_db, plane_wave_response
 
     kw = dict(beta=1.0, rear_gain_db=gain_db, rear_phase_deg=phase_deg)
     out = {}

@@ -47,7 +47,7 @@ from benchmarks.store.sqlite import ResultStore
 from scenesim.errors import ConfigError, ParameterError
 from scenesim.validate import check_choice
 
-WORKER_PRELOAD = ("benchmarks.run.runner", "benchmarks.run.worker", "benchmarks.metrics.evaluate", "data_recipes", "enhancers.registry", "scenesim.scene.compose")
+WORKER_PRELOAD = ("benchmarks.run.runner", "benchmarks.run.worker", "benchmarks.metrics.evaluate", "data_recipes", "enhancers.core.registry", "scenesim.scene.compose")
 """Modules a local pool's fork server imports once, so its workers start warm."""
 
 @dataclass(frozen=True)

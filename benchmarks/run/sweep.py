@@ -949,19 +949,19 @@ def _axis_names() -> str:
 
 
 def _available_enhancers() -> list[str]:
-    from enhancers.registry import available
+    from enhancers.core.registry import available
 
     return list(available())
 
 
 def _enhancer_spec(name: str):
-    from enhancers.registry import get_spec
+    from enhancers.core.registry import get_spec
 
     return get_spec(name)
 
 
 def _check_enhancer_params(name: str, params: dict) -> None:
-    from enhancers.registry import make
+    from enhancers.core.registry import make
 
     make(name, **params)
 

@@ -237,7 +237,7 @@ def _squeeze(x):
 
 def build_enhancer(spec: EnhancerSpec, cond: Condition):
     """The enhancer of a spec, with the condition's array geometry when it needs one."""
-    from enhancers.registry import make, with_geometry
+    from enhancers.core.registry import make, with_geometry
 
     return with_geometry(make(spec.name, **spec.params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
 

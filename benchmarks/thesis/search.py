@@ -198,7 +198,7 @@ def _snr_db(s: np.ndarray, n: np.ndarray) -> float:
 
 
 def _make(name: str, **params):
-    from enhancers.registry import make, with_geometry
+    from enhancers.core.registry import make, with_geometry
 
     return with_geometry(make(name, **params), spacing_m=0.0214)
 

@@ -1,6 +1,6 @@
 """Spectral subtraction with minimum-statistics noise tracking (algorithms.md section 6).
 
-On the WOLA filter bank of :mod:`enhancers.filterbank` (16 ms Hamming, 50 % overlap at
+On the WOLA filter bank of :mod:`enhancers.core.filterbank` (16 ms Hamming, 50 % overlap at
 16 kHz), per frame ``l`` and bin ``k``::
 
     Pn       = noise PSD from Martin 1994 (``ss``) or Martin 2001 (``ss-ms2001``)
@@ -48,10 +48,10 @@ The gain mask ``G`` is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
 ``Result.replay`` applies it to a component's STFT and synthesizes: exact shadow
 filtering (algorithms.md section 8).  Batch processing is the streaming step applied to
 the whole signal, so batch and streaming outputs agree for every block size.  ``ss`` streams
-blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples through a compiled tracker
-and gain (:func:`enhancers.stream_kernels.ss_ms1994_frames`, the same arithmetic per frame); with
+blocks of up to :data:`enhancers.kernels.stream.MAX_BLOCK` samples through a compiled tracker
+and gain (:func:`enhancers.kernels.stream.ss_ms1994_frames`, the same arithmetic per frame); with
 a power-of-two frame length (the default 256) the filter bank runs in the same numba call
-(:func:`enhancers.stream_kernels.ss_block`: one call per block, issue 20), otherwise it is the
+(:func:`enhancers.kernels.stream.ss_block`: one call per block, issue 20), otherwise it is the
 numpy one.  The numpy step stays the reference (``MAX_BLOCK = 0``).
 """
 
@@ -64,9 +64,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.filterbank import FilterBank, FilterBankState
-from enhancers.noise_tracking import (
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.filterbank import FilterBank, FilterBankState
+from enhancers.single.noise_tracking import (
     MS1994State,
     MS2001Config,
     MS2001State,
@@ -197,7 +197,7 @@ class _SSState:
 
 def _fuse(state: _SSState, wola: tuple) -> tuple:
     """``ss_block``'s state arrays from ``state`` (``wola``: fresh arrays from ``fast_frames.wola_state``)."""
-    from enhancers.fast_frames import wola_from
+    from enhancers.kernels.frames import wola_from
 
     tr = state.tracker
     P = np.zeros(wola[4].shape[1] // 2 + 1) if tr.P is None else tr.P  # n_bins = N/2 + 1
@@ -208,7 +208,7 @@ def _fuse(state: _SSState, wola: tuple) -> tuple:
 
 def _unfuse(state: _SSState) -> None:
     """Move the fused kernel's state back into ``state.fb`` / ``state.tracker`` (before a numpy step)."""
-    from enhancers.fast_frames import wola_back
+    from enhancers.kernels.frames import wola_back
 
     P, sc = state.fused[7], state.fused[10]
     state.fb = wola_back(state.fused)
@@ -274,7 +274,7 @@ class _SubtractionBase(Enhancer):
 
     def _process_block(self, block: np.ndarray, state: _SSState):
         if 0 < block.shape[-1] and self._compiled:
-            import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+            import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when streaming
 
             if block.shape[-1] <= sk.MAX_BLOCK:
                 return self._compiled_step(sk, block, state), state
@@ -323,7 +323,7 @@ class SpectralSubtraction(_SubtractionBase):
     ``trace``: ``"gain"`` (``G``) and ``"noise_psd"`` (``Pn`` in periodogram units, ``|X|^2``
     of the windowed frame), both ``(n_frames, n_bins)`` with ``n_frames = n // hop``.
     Output latency ``frame_len - 1`` samples (frame sizes are in samples because ``tags``
-    cannot depend on ``fs``; use :func:`enhancers.filterbank.frame_len_for` for 16 ms at
+    cannot depend on ``fs``; use :func:`enhancers.core.filterbank.frame_len_for` for 16 ms at
     another rate).
     """
 
@@ -375,15 +375,15 @@ class SpectralSubtraction(_SubtractionBase):
     @functools.cached_property
     def _wola(self):
         """Fresh fused-kernel filter-bank arrays (a callable), None when the frame length is not a power of two."""
-        from enhancers.fast_frames import wola_maker
+        from enhancers.kernels.frames import wola_maker
 
         return wola_maker(self.filterbank, 1, n_in=1)
 
     def _compiled_step(self, sk, block: np.ndarray, state: _SSState) -> np.ndarray:
-        """:meth:`_step` with the tracker and gain of :func:`enhancers.stream_kernels.ss_ms1994_frames`.
+        """:meth:`_step` with the tracker and gain of :func:`enhancers.kernels.stream.ss_ms1994_frames`.
 
         The filter bank is the same; ``state`` (and its tracker state) is updated in place.  With a
-        power-of-two frame length the whole block is one call (:func:`enhancers.stream_kernels.ss_block`).
+        power-of-two frame length the whole block is one call (:func:`enhancers.kernels.stream.ss_block`).
         """
         fb = self.filterbank
         if state.fused is None and self._wola is not None:
@@ -412,7 +412,7 @@ class SpectralSubtraction(_SubtractionBase):
 
 @functools.lru_cache(maxsize=32)
 def _ss_kernel_args(params: SpectralSubtraction.Params):
-    """``(omin (K,), gp, smoothed)`` of :func:`enhancers.stream_kernels.ss_ms1994_frames` for ``params``."""
+    """``(omin (K,), gp, smoothed)`` of :func:`enhancers.kernels.stream.ss_ms1994_frames` for ``params``."""
     omin = SpectralSubtraction(params).omin
     n_bins = _filterbank(params.frame_len, params.hop, params.window).n_bins
     omin = np.array(np.broadcast_to(omin, (n_bins,)), dtype=float)  # writable: numba types read-only apart

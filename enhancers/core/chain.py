@@ -42,8 +42,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.registry import get_spec
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.registry import get_spec
 from scenesim.errors import ParameterError
 from scenesim.scene.geometry import DEFAULT_SPACING_M, SPEED_OF_SOUND_MPS
 from scenesim.validate import check_positive

@@ -8,7 +8,7 @@ time and PyTorch is not needed).  Only the C library is called, through ``ctypes
 on 10 ms frames (480 samples) at 48 kHz, ``df_free``.
 
 This wrapper takes 16 kHz audio: each 10 ms frame (160 samples) is resampled to 48 kHz
-and back by the streaming filters :class:`enhancers.blackbox.Resampler16to48` (as
+and back by the streaming filters :class:`enhancers.peers.blackbox.Resampler16to48` (as
 ``rnnoise``), so batch and streaming outputs are identical.
 
 Latency (declared in ``tags``): 159 samples of frame buffering + 32 (the two FIRs) + 480
@@ -42,9 +42,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers.base import Params
-from enhancers.blackbox import FramedBlackBox, Resampler16to48
-from enhancers.chain import Chain
+from enhancers.core.base import Params
+from enhancers.core.chain import Chain
+from enhancers.peers.blackbox import FramedBlackBox, Resampler16to48
 from scenesim.errors import ParameterError, PluginError
 from scenesim.validate import check_range
 
@@ -104,7 +104,7 @@ def check_model_archive(path: str) -> str:
 @functools.lru_cache(maxsize=8)
 def _probe(path: str, digest: str) -> None:
     """Open a model other than the bundled one in a child process (the library aborts on failure)."""
-    code = ("import ctypes,sys; from enhancers.dfn3 import _lib; "
+    code = ("import ctypes,sys; from enhancers.peers.dfn3 import _lib; "
             "h=_lib().df_create(sys.argv[1].encode(), 100.0, None); sys.exit(0 if h else 3)")
     done = subprocess.run([sys.executable, "-c", code, path], capture_output=True, text=True, timeout=120)
     if done.returncode != 0:

@@ -1,8 +1,8 @@
 """Compiled (numba) frame loop of ``mic-calibration``, ``eb-subband`` and ``eb-robust``.
 
-:func:`run_frames` is the numpy reference of :mod:`enhancers.mic_calibration` (its cardioid freeze
+:func:`run_frames` is the numpy reference of :mod:`enhancers.beam.mic_calibration` (its cardioid freeze
 rules, the per-bin averages and the estimate every ``estimate_every`` frames) followed by the one of
-:mod:`enhancers.subband_eb` (NLMS beta with its gate, the equaliser, the DAS mix weight), written
+:mod:`enhancers.beam.subband_eb` (NLMS beta with its gate, the equaliser, the DAS mix weight), written
 frame by frame and bin by bin.  Why compiled: streaming in 10 ms blocks sends one or two frames per
 call through ~150 small numpy calls (~2 ms of Python per block); here one call does a block.  The
 arithmetic follows the reference operation for operation (numpy's pairwise sum, complex division,
@@ -10,7 +10,7 @@ arithmetic follows the reference operation for operation (numpy's pairwise sum, 
 of the slope fit are the only reordered sums).  The running minimum of the freeze rules' floors is a
 monotone deque per bin (exact, O(1) per frame) instead of the reference's window of ratios.
 
-Layout (built by :mod:`enhancers.fast_frames`, which documents each row): ``par`` float and ``ipar``
+Layout (built by :mod:`enhancers.kernels.frames`, which documents each row): ``par`` float and ``ipar``
 int parameters, ``cst`` / ``icst`` per-bin constants ``(rows, K)``, the state ``rs`` (real rows),
 ``cs`` (complex rows) and the deques ``dq_val`` / ``dq_idx`` ``(3, K, n)``, ``dq_hs`` ``(3, 2, K)``
 (head, size), all updated in place.  ``cache=True`` keeps the machine code under ``__pycache__``.
@@ -23,7 +23,7 @@ import math
 import numba
 import numpy as np
 
-from enhancers._kernels_wola import (
+from enhancers.kernels.wola import (
     analyze_pair,
     block_frames,
     finish_block,
@@ -424,7 +424,7 @@ def run_frames(X1, X2, par, ipar, cst, icst, rs, cs, dq_val, dq_idx, dq_hs, out_
 @numba.njit(cache=True)
 def run_block(block, tail, ola, queue, wst, win, rev, tw, par, ipar, cst, icst, rs, cs, dq_val, dq_idx,
               dq_hs):  # pragma: no cover - compiled; covered through tests/test_fast_frames.py
-    """One streaming block ``(2, b)`` end to end: the filter bank's analysis (enhancers.filterbank's
+    """One streaming block ``(2, b)`` end to end: the filter bank's analysis (enhancers.core.filterbank's
     frames, windows ``win = (w_a, w_s)``), :func:`run_frames`, synthesis and overlap-add.  Returns the
     block's ``(C, b)`` output samples (``C = ola.shape[0]``: 2 = the calibrated pair, 1 = the beam).
 

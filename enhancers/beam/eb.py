@@ -1,6 +1,6 @@
 """Elko's adaptive first-order differential beamformer and fixed cardioid/hypercardioid (algorithms.md section 5).
 
-``y[n] = cF[n] - beta[n] cB[n]`` (:mod:`enhancers.differential`), followed by the optional
+``y[n] = cF[n] - beta[n] cB[n]`` (:mod:`enhancers.beam.differential`), followed by the optional
 look-direction equaliser.  ``beta`` minimises ``E[y^2]`` by NLMS and is clipped to
 ``[0, 1]`` (null in the rear half plane) at every update:
 
@@ -33,8 +33,8 @@ Given the beta sequence, the output is linear in (p1, p2):
 Latency: ``fd_half_len`` samples (both branches are delayed by it so a fractional ``T fs``
 can use a centred windowed sinc; whole-number ``T fs`` uses exact shifts).
 
-Streaming: blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run the compiled
-:func:`enhancers.stream_kernels.differential_block` (the same arithmetic, one call per block,
+Streaming: blocks of up to :data:`enhancers.kernels.stream.MAX_BLOCK` samples run the compiled
+:func:`enhancers.kernels.stream.differential_block` (the same arithmetic, one call per block,
 the state updated in place); longer blocks and batch run the numpy step below, the reference.
 """
 
@@ -49,8 +49,8 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d
 from scipy.signal import lfilter
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.differential import DifferentialFilters, branch_signals, design_filters
+from enhancers.beam.differential import DifferentialFilters, branch_signals, design_filters
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
 from scenesim.errors import ParameterError
 from scenesim.validate import check_choice, check_int, check_positive, check_range
 
@@ -148,7 +148,7 @@ class _DifferentialBase(Enhancer):
         return y[None, :], _replace(state, history=new_hist, eq_zi=zi), betas
 
     def _process_block(self, block, state):
-        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+        import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when streaming
 
         args = _kernel_args(type(self), self.params, state.fs) if 0 < block.shape[-1] <= sk.MAX_BLOCK else None
         if args is None:
@@ -157,7 +157,7 @@ class _DifferentialBase(Enhancer):
         return self._compiled_step(sk, block, state, args), state
 
     def _compiled_step(self, sk, block, state: _DiffState, args) -> np.ndarray:
-        """The block through :func:`enhancers.stream_kernels.differential_block`; ``state`` updated in place."""
+        """The block through :func:`enhancers.kernels.stream.differential_block`; ``state`` updated in place."""
         h, lat, eq_b, eq_a, pp, mode, gate, n_window = args
         zi = _EMPTY if state.eq_zi is None else state.eq_zi
         if state.g_hist is None and gate and n_window > 1:
@@ -196,14 +196,14 @@ _EMPTY = np.zeros(0)  # stands for "no equaliser" / "no gate window" in the comp
 
 @functools.lru_cache(maxsize=64)
 def _kernel_args(cls, params, fs: int):
-    """Arguments of :func:`enhancers.stream_kernels.differential_block` for ``cls(params)`` at ``fs``.
+    """Arguments of :func:`enhancers.kernels.stream.differential_block` for ``cls(params)`` at ``fs``.
 
     ``(h, latency, eq_b, eq_a, pp, mode, gate, n_window)`` with the equaliser's numerator padded
     to the denominator's length, as ``lfilter`` pads it; None where the compiled step does not
     cover the configuration (the sample variant with a gate window: its running minimum per
     sample is left to the numpy step).
     """
-    import enhancers.stream_kernels as sk
+    import enhancers.kernels.stream as sk
 
     e = cls(params)
     f = e.filters(fs)
@@ -257,7 +257,7 @@ class ElkoBeamformer(_DifferentialBase):
         one ratio per sample of the window).
     beta_min, beta_max : limits beta is clipped to at every update (default 0 and 1: the null
         in the rear half plane; ``0 <= beta_min <= beta_max <= 1``).
-    eq, eq_fc_hz, eq_hf : look-direction equaliser (see :mod:`enhancers.differential`).
+    eq, eq_fc_hz, eq_hf : look-direction equaliser (see :mod:`enhancers.beam.differential`).
     fd_half_len : half length of the fractional-delay filter = latency (samples).
     t_samples : internal delay T in samples, overriding ``spacing_m / c_mps`` (None: from the
         geometry; the thesis uses exactly one sample, "internally delayed by one sample each").

@@ -7,7 +7,7 @@ level-free decision per frame from the forward/backward cardioid ratio over 250 
 and the DAS weight learn 0.24 s late; the rules' remaining edges graded; at low estimated input SNR the
 cardioid rules again (there the noise masks the talker).  It is ``calibration_jitter --frame-settled``
 (:data:`benchmarks.perf.calibration_jitter.FRAME_SETTLED`, where each piece and its measurement is named; the
-module docstring of :mod:`enhancers.mic_calibration` has the rounds).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
+module docstring of :mod:`enhancers.beam.mic_calibration` has the rounds).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
 stage: the gain averaged over neighbouring bins and frames, so that ss's own gain moves less with the noise.
 
 Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` against ``eb-robust-ss``:

@@ -28,8 +28,8 @@ import numpy as np
 from nara_wpe import wpe as _wpe
 from nara_wpe.utils import istft, stft
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.chain import Chain
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.chain import Chain
 from scenesim.validate import check_int
 
 __all__ = ["Wpe", "WpeEbRobust", "WpeEbRobustSs", "wpe_filter"]

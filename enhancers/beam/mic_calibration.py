@@ -193,7 +193,7 @@ on ``eb-robust-ss`` needs a talker-blind ``ss`` gain as well, whatever the calib
 
 Parametric mode (issue 16 part 3; off by default: ``model="bins"``).  With ``model="hp1"`` the
 estimate is not a per-bin quantity but the sensor model of algorithms.md section 4b, ``r(f) = g e^{j phi0}
-(f_c1 + j f) / (f_c2 + j f)`` (:mod:`enhancers.calibration_model`), fitted at every update to the per-bin
+(f_c1 + j f) / (f_c2 + j f)`` (:mod:`enhancers.beam.calibration_model`), fitted at every update to the per-bin
 averages over ``model_band_hz`` (100 Hz-4 kHz) -- weighted least squares on ``ln r``, weights the
 averages' inverse variances (active frame counts, de-biased coherence), ``model_iter`` (3) Gauss-Newton
 steps warm-started from the previous fit, a nuisance phase slope for what the propagation-slope removal
@@ -232,7 +232,7 @@ speech being loud next to where it is quiet.  ``frame_soft_db`` grades the weigh
 threshold; ``frame_snr_db=(lo, hi)`` hands the averages back to the cardioid rules' cells where the
 stream's estimated input SNR is below ``lo`` (:func:`_frame_snr_share`: the talker x noise terms are
 masked by the noise there, and a talker leaves most cells of its frames to it).  ``eb-robust`` then
-learns its DAS weight on the same weights (``mix_model="delayed"``, :mod:`enhancers.subband_eb`).
+learns its DAS weight on the same weights (``mix_model="delayed"``, :mod:`enhancers.beam.subband_eb`).
 Measured (``python -m benchmarks.perf.calibration_jitter --frame --seeds 5 [--data-dir ../shared/data]
 --baseline <default run>``, every noise and SNR, 2 December 2026, load ~2-4 on 2 cores; :data:`FRAME
 <benchmarks.perf.calibration_jitter.FRAME>`, ``frame_q_db=5``, hold 0.2 s, look ahead 0.24 s): on
@@ -264,7 +264,7 @@ uncalibrated pair's ratio there is weak (0-5 dB for the talker alone), so the lo
 syllables only.  ``frame_level_db`` (:func:`_frame_level_rule`) also stops at a frame whose power (both mics,
 ``frame_low_hz``-4 kHz) is that far over its running minimum over ``level_floor_s``: it sees what the
 ratio cannot, and a false alarm (a machine's hit) only costs frames learned.  With beta learned late on
-the same weights (``beta_model="delayed"`` in :mod:`enhancers.subband_eb`) and the rear rule
+the same weights (``beta_model="delayed"`` in :mod:`enhancers.beam.subband_eb`) and the rear rule
 (``cal_rear_db=10``): :data:`FRAME_DELAYED <benchmarks.perf.calibration_jitter.FRAME_DELAYED>`, measured
 below (``--frame-delayed``, 5 seeds, every noise and SNR, 2 December 2026, load ~2 on 2 cores): on
 ``../shared/data`` worst -15.0 dB, median -37.1, 7 of 60 rows above -30 (5 of them one utterance, seed 4,
@@ -284,7 +284,7 @@ decisions that flip, each with a lasting effect: the rule hearing a real recordi
 run only (``frame_start_s``: the decisions of the first frames are not trusted -- the frames are learned as
 noise, not held, do not end the start-up and are not the talker's for the SNR share); the start-up stand-ins
 handing over to the delayed estimates at a count that differs between the runs (``fast_blend`` in
-:mod:`enhancers.subband_eb`: linearly in the count); the SNR share set by an estimate from a few frames
+:mod:`enhancers.beam.subband_eb`: linearly in the count); the SNR share set by an estimate from a few frames
 (``frame_snr_frames``: its say grows with the frames of the rarer kind); that estimate read low -- a
 reverberant talker's unmarked frames counted as noise (``frame_snr_quiet``, with ``frame_snr_quiet_ratio``
 so that a machine's hits still count), and a high-frequency noise over 1-4 kHz alone (``frame_snr_low_hz``:
@@ -371,7 +371,7 @@ stand-in was a 6-frame average whose talker x noise cross term differed between 
 ``frame_start_s=0.13`` (16 frames) outlasts the build-up: the stand-in then learns until the talker's onset at
 0.4 s (seed 1: -33.6 dB, SNR-I 1.17 -> 2.51 dB).  That is :data:`FRAME_SETTLED
 <benchmarks.perf.calibration_jitter.FRAME_SETTLED>` (``--frame-settled``; registered as ``eb-robust-blind`` and
-``eb-robust-blind-ss``, :mod:`enhancers.presets`), and it meets every part-3 target on both data sets (5 seeds,
+``eb-robust-blind-ss``, :mod:`enhancers.beam.presets`), and it meets every part-3 target on both data sets (5 seeds,
 every noise and SNR; mismatch 2 seeds): ``../shared/data`` worst -30.7 dB, median -38.5, 0 of 60 rows above
 -30, agreement 100 %, SNR-I vs the default babble +0.20, factory +0.11, hall +1.49, wind -0.01 dB, mismatch
 loss 1.07 / 1.82 / 0.35 dB; built-in worst -30.9, median -41.5, 0 of 60, agreement 100 %, SNR-I -0.49 /
@@ -381,7 +381,7 @@ every target too, but only because frame 10 is still in the build-up, so the sta
 at 0.1-0.2 s) as noise: 2 built-in rows (-28.0 dB) and 240 deg 2.21 dB.  So the value must outlast the field's
 build-up and stay below the earliest talker onset -- a property of scenes that switch their noise on with the
 stream; a phone's call starts in a field already built up.  Also measured: ``beta_level_db``
-(:func:`enhancers.subband_eb._level_weights`), because ``eb-robust``'s seed-3 row is beta learning a voiced
+(:func:`enhancers.beam.subband_eb._level_weights`), because ``eb-robust``'s seed-3 row is beta learning a voiced
 ending 20 dB over the noise below 500 Hz that one run's frame rule missed (beta 0.1 -> 1.0 in the file's last
 0.1 s).  With FRAME_SETTLED, a knee of 6 dB takes that row to -36.0 dB and meets every target too (shared
 worst -30.9, SNR-I +0.26 / -0.12 / +1.53 / -0.01, mismatch 1.28 / 1.28 / -0.08 dB; built-in worst -30.9,
@@ -413,9 +413,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers import fast_frames
-from enhancers.calibration_model import fit_hp1, hp1_log_response
-from enhancers.stft_stage import (
+from enhancers.beam.calibration_model import fit_hp1, hp1_log_response
+from enhancers.core.stft_stage import (
     TINY,
     GateState,
     StftEnhancer,
@@ -425,6 +424,7 @@ from enhancers.stft_stage import (
     power_ratio_gate,
     smooth_frames,
 )
+from enhancers.kernels import frames as fast_frames
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_range
 
@@ -1059,7 +1059,7 @@ def model_estimate(avg: np.ndarray, counts: np.ndarray, theta: np.ndarray | None
 
     Per bin the measured ``ln r = 0.5 ln(S22 / S11) + j angle(S21 e^{-j b k})`` (``b``: the propagation
     slope of :func:`_propagation_slope`, whose ``c / k`` term leaves the corners' phase in), fitted over
-    ``model_band_hz`` by :func:`enhancers.calibration_model.fit_hp1` (with a nuisance phase slope within
+    ``model_band_hz`` by :func:`enhancers.beam.calibration_model.fit_hp1` (with a nuisance phase slope within
     twice the physical range ``max_slope`` rad per bin, which ``r`` leaves out), each update warm-started from the
     previous fit (``theta``; None: the prior), ``model_iter`` steps.  Weights: inverse variances for
     jointly Gaussian spectra with coherence ``gamma`` (capped at 0.99) over ``n`` frames (the bin's
@@ -1409,7 +1409,7 @@ class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
         return calibration_init(n_bins)
 
     def _frames(self, X, algo, fs):
-        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.kernels.frames)
             Y, record = algo.frames(X)
             return Y, algo, record
         r_hat, frozen, algo = calibration_step(X[0], X[1], algo, self.params, fs=fs, delay=self.delay_samples(fs))

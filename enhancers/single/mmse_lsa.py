@@ -2,7 +2,7 @@
 
 The classic single-channel peer of spectral subtraction (``ss``): same WOLA filter bank
 (16 ms Hamming, 50 % overlap at 16 kHz), same noise PSD tracker as ``ss-ms2001``
-(:func:`enhancers.noise_tracking.ms2001_step`, VOICEBOX ``estnoisem`` defaults), a
+(:func:`enhancers.single.noise_tracking.ms2001_step`, VOICEBOX ``estnoisem`` defaults), a
 different gain rule.  Per frame ``l`` and bin ``k``::
 
     lambda_d  = Pn[l]                                 Martin 2001 noise PSD
@@ -21,7 +21,7 @@ noise PSD; the first frame uses ``xi = max(gamma - 1, xi_min)`` (no previous est
 Why ``gain_max = 1``: for ``gamma -> 0`` the LSA gain grows without bound (the estimated
 amplitude stays finite while ``|X| -> 0``).  Those are bins where speech and noise nearly
 cancel; replaying a gain > 1 on the separate components would inflate both (see
-:mod:`enhancers.ss`).  ``alpha = 0.98`` and ``xi_min = -25 dB`` follow Cappé (1994)'s
+:mod:`enhancers.single.ss`).  ``alpha = 0.98`` and ``xi_min = -25 dB`` follow Cappé (1994)'s
 analysis of musical noise in the decision-directed estimator.
 
 White box: the gain mask is recorded (``trace["gain"]``, ``(n_frames, n_bins)``) and
@@ -43,9 +43,9 @@ from typing import ClassVar
 import numpy as np
 from scipy.special import exp1
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.filterbank import FilterBank, FilterBankState
-from enhancers.noise_tracking import (
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.filterbank import FilterBank, FilterBankState
+from enhancers.single.noise_tracking import (
     MS2001Config,
     MS2001State,
     check_ms2001_fields,

@@ -1,6 +1,6 @@
 """Compiled (numba) WOLA analysis / synthesis of one frame, for the fused streaming step of
-:mod:`enhancers.fast_frames` and of ``ss_block`` / ``beam_block`` in :mod:`enhancers.stream_kernels` (the
-same filter bank as :class:`enhancers.filterbank.FilterBank`; :func:`block_frames` ... :func:`finish_block`
+:mod:`enhancers.kernels.frames` and of ``ss_block`` / ``beam_block`` in :mod:`enhancers.kernels.stream` (the
+same filter bank as :class:`enhancers.core.filterbank.FilterBank`; :func:`block_frames` ... :func:`finish_block`
 are the block's framing and overlap-add bookkeeping, the state layout of ``fast_frames.wola_state``).
 
 Why: a 10 ms block is one or two frames, and numpy's ``rfft`` / ``irfft`` calls plus the filter
@@ -100,7 +100,7 @@ def synthesize(Y1, Y2, two, ws, rev, tw, y1, y2):  # pragma: no cover - compiled
 def block_frames(block, tail, wst):  # pragma: no cover - compiled
     """``(ext, first_end, m)`` of a streaming block ``(C, b)``: ``ext = [tail | block]`` and the ``m`` frames
     completed in it, the frame ending at block index ``e = first_end + j R`` spanning ``ext[:, e:e + N]``
-    (enhancers.filterbank's frames; ``wst`` = (samples received modulo R, queued samples, R))."""
+    (enhancers.core.filterbank's frames; ``wst`` = (samples received modulo R, queued samples, R))."""
     n1 = tail.shape[1]
     r = wst[2]
     b = block.shape[1]

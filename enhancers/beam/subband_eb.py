@@ -8,7 +8,7 @@ frequency only if beta depends on frequency:
     beta_k(theta) = sin(w_k T (1 + c) / 2) / sin(w_k T (1 - c) / 2)        (1)
 
 which lies in ``[0, 1]`` for every rear direction (``c <= 0``) and bin below Nyquist.  On
-the WOLA filter bank (:mod:`enhancers.stft_stage`) bin ``k`` of frame ``l`` forms
+the WOLA filter bank (:mod:`enhancers.core.stft_stage`) bin ``k`` of frame ``l`` forms
 
     cF = X1 - e^{-j w_k T} X2,    cB = X2 - e^{-j w_k T} X1,    Y = cF - beta_k[l] cB
 
@@ -27,7 +27,7 @@ calibrated) microphones ``cF / cB`` of any plane wave is *real* (eq. 1), so a re
 nulls it exactly: no degree of freedom is missing.  A rear-mic error ``r = g e^{j phi}``
 makes the ratio complex, and then no real beta nulls the wave; a complex per-bin weight
 ``w`` would.  We keep the real beta and remove the mismatch in front of it with
-:mod:`enhancers.mic_calibration` (``eb-robust``) because (a) ``[0, 1]`` is a simple,
+:mod:`enhancers.beam.mic_calibration` (``eb-robust``) because (a) ``[0, 1]`` is a simple,
 verifiable constraint that keeps the look direction: for the look direction ``cB = 0``
 exactly only with matched mics, and with a mismatch the complex weight's leakage
 ``w (1 - r) e^{-jwT} X1`` into the talker is of the same size as the mismatch it
@@ -43,7 +43,7 @@ the mismatch term, which is why ``eb-subband`` alone degrades with mismatched mi
 DAS fallback (``das_mix``, off by default here, on in ``eb-robust``).  For noise that is
 incoherent between the mics (wind, sensor self-noise) a differential pattern is worse
 than the mics themselves at low frequencies: its noise PSD re the look direction is
-``N / (4 sin^2(wT))`` (:mod:`enhancers.eq`), for the cardioid > 1 below ~2 kHz and +19 dB
+``N / (4 sin^2(wT))`` (:mod:`enhancers.core.eq`), for the cardioid > 1 below ~2 kHz and +19 dB
 at 200 Hz.  A delay-and-sum towards the look direction,
 scaled to the same look response ``L = |G 2 sin(wT)|``, ``Yo = L (X1 e^{-jwT} + X2) / 2``,
 halves it instead.  Per bin the output is ``Y = Yd - alpha D`` with ``D = Yd - Yo`` (no
@@ -54,7 +54,7 @@ prior ``mix_alpha0`` relative to the noise-only front-mic power; see :func:`das_
 ``alpha -> 1`` in incoherent noise (closed form: ``<Yd Yo*> = <|Yo|^2>`` there), ``-> 0`` where
 the differential null wins (a rear plane wave).  ``trace["alpha"]``: ``(n_frames, n_bins)``.
 
-Equaliser: :func:`enhancers.eq.look_eq_gain` per bin (exact look-direction inverse,
+Equaliser: :func:`enhancers.core.eq.look_eq_gain` per bin (exact look-direction inverse,
 ``eq_max_gain_db`` cap; ``eq_noise_gain_db`` the noise-aware white-noise-gain bound;
 ``eq_highpass_hz``).  ``eq_phase`` (off here, on in ``eb-robust``) also multiplies by ``-j``:
 the look-direction response ``2j sin(wT) e^{-jwT}`` then becomes the front mic delayed by
@@ -88,10 +88,14 @@ from typing import ClassVar
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from enhancers import fast_frames
-from enhancers.beam_pool import band_onehot, beta_from_cos, direction_beta_step, pooled_mix_step
-from enhancers.eq import look_eq_gain
-from enhancers.stft_stage import (
+from enhancers.beam.beam_pool import (
+    band_onehot,
+    beta_from_cos,
+    direction_beta_step,
+    pooled_mix_step,
+)
+from enhancers.core.eq import look_eq_gain
+from enhancers.core.stft_stage import (
     TINY,
     GateState,
     StftEnhancer,
@@ -102,6 +106,7 @@ from enhancers.stft_stage import (
     ratio_gate,
     smooth_frames,
 )
+from enhancers.kernels import frames as fast_frames
 from scenesim.errors import ParameterError
 from scenesim.validate import check_choice, check_int, check_range
 
@@ -438,7 +443,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         return int(math.ceil(float(p.gate_floor_s) * fs / int(p.hop))) if p.gate_floor_s > 0 else 0
 
     def _fast_state(self, fs: int, n_bins: int, band: slice | None = None):
-        """The compiled step's state (:mod:`enhancers.fast_frames`), with the calibration when ``band``."""
+        """The compiled step's state (:mod:`enhancers.kernels.frames`), with the calibration when ``band``."""
         return fast_frames.new_state(self.params, fs, n_bins, delay=self.delay_samples(fs),
                                      filterbank=self.filterbank, band=band, gate_window=self._gate_window(fs))
 
@@ -506,7 +511,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
 
     def _delayed_betas(self, cF, cB, X1, sub: SubbandState, fs: int, learn, *, gate_db, gate_lam):
         """``beta_model="delayed"``: one least-squares beta per bin, ``clip(S_FB / S_BB, 0, 1)`` (``beta0`` before
-        any frame is learned; :func:`enhancers.beam_pool.pooled_mix_step` with one band per bin: the minimiser
+        any frame is learned; :func:`enhancers.beam.beam_pool.pooled_mix_step` with one band per bin: the minimiser
         of ``|cF - beta cB|^2`` over the frames learned, one-pole ``beta_lam`` per frame), learned ``D`` frames
         late like ``mix_model="delayed"``: the block's cardioids wait in ``sub.beta_pend`` until the
         calibration's held weights (``learn = (held, now)``) judge them, the talker's onset after them known.
@@ -606,7 +611,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         return alphas, SubbandState(**values)
 
     def _delayed_mix(self, Y, D, p1, sub: SubbandState, fs: int, learn):
-        """``mix_model="delayed"``: the pooled weight (:func:`enhancers.beam_pool.pooled_mix_step`) learned from
+        """``mix_model="delayed"``: the pooled weight (:func:`enhancers.beam.beam_pool.pooled_mix_step`) learned from
         the frames the caller's held weights judge, which lag the block by ``D`` frames (the calibration's
         look ahead): the block's products wait ``D`` frames in ``sub.mix_pend``, so a frame is learned only
         once the talker's onset ``D`` frames after it is known.  The weight of a frame uses the frames
@@ -680,14 +685,14 @@ class SubbandElkoBeamformer(SubbandBase):
     eps : regularisation relative to the front-mic power (default 1e-4).
     beta0 : initial beta of every bin in ``[0, 1]`` (default 0: forward cardioid).
     adapt_gate_db, gate_lam, gate_floor_s : the per-bin adaptation gate (None = off, default).
-    eq, eq_max_gain_db, eq_noise_gain_db, eq_highpass_hz : equaliser (:mod:`enhancers.eq`).
+    eq, eq_max_gain_db, eq_noise_gain_db, eq_highpass_hz : equaliser (:mod:`enhancers.core.eq`).
     eq_phase : undo the look response's 90-degree shift (default off; see the module docstring).
     das_mix, mix_lam : the DAS fallback (off by default; needs ``eq_phase``) and its averages' factor
         per frame (0.95).
     mix_smooth_bins, mix_alpha0 : the DAS mix weight's averaging half-width over bins (default 0) and
         its prior (default 0: the differential path); see :func:`das_mix_step`.
     beta_model, beta_bands_hz : ``"bin"`` (default: one NLMS beta per bin) or ``"direction"`` (opt-in,
-        :mod:`enhancers.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
+        :mod:`enhancers.beam.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
         per frame) and that model's band edges in Hz (default ``()``: one band); or ``"delayed"``
         (``eb-robust`` with a talker-blind rule only: one least-squares beta per bin learned ``level_ahead_s``
         late on the calibration's held weights, see ``_delayed_betas``).
@@ -710,10 +715,10 @@ class SubbandElkoBeamformer(SubbandBase):
         must null a machine heard from the stream's start.
     beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
         cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
-        :func:`enhancers.beam_pool.direction_beta_step`.
+        :func:`enhancers.beam.beam_pool.direction_beta_step`.
     mix_bands_hz, mix_ramp_cells : the DAS mix weight per band (edges in Hz, ``()``: one band; default
         None: per bin) from the band's unfrozen cells only, shrunk towards ``mix_alpha0`` until it has
-        learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam_pool.pooled_mix_step`.
+        learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam.beam_pool.pooled_mix_step`.
     mix_model, mix_fast_cells : ``"weights"`` (default: the weight learns at once, where its masks leave a
         cell open) or ``"delayed"`` (``eb-robust`` only, with ``mix_bands_hz``: learned ``level_ahead_s``
         late, with the calibration's weights -- the talker's onset is known before a frame is learned);
@@ -745,7 +750,7 @@ class SubbandElkoBeamformer(SubbandBase):
         return subband_init(n_bins, float(self.params.beta0))
 
     def _frames(self, X, algo, fs):
-        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.kernels.frames)
             Y, record = algo.frames(X)
             return Y[None], algo, record
         Y, record, algo = self._beamform(X[0], X[1], algo, fs)

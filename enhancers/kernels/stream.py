@@ -9,7 +9,7 @@ its numpy step for longer ones (batch), so batch == concatenated streaming is al
 the kernel against the reference, and ``tests/test_stream_kernels.py`` compares the two paths
 on random multi-block input (1e-12 relative).  ``MAX_BLOCK = 0`` routes every block through
 the numpy reference.  ``ss_block`` and ``beam_block`` also run the WOLA filter bank inside the call
-(the FFT kernels of :mod:`enhancers._kernels_wola`, shared with :mod:`enhancers.fast_frames`).
+(the FFT kernels of :mod:`enhancers.kernels.wola`, shared with :mod:`enhancers.kernels.frames`).
 
 ``cache=True`` keeps the machine code under ``__pycache__`` (or ``$NUMBA_CACHE_DIR``), so only
 the first call in a fresh install pays the JIT (measured by ``benchmarks/perf/stream_jit.py``).
@@ -27,7 +27,7 @@ import math
 import numba
 import numpy as np
 
-from enhancers._kernels_wola import analyze_pair, block_frames, finish_block, synthesize_frames
+from enhancers.kernels.wola import analyze_pair, block_frames, finish_block, synthesize_frames
 
 __all__ = ["MAX_BLOCK", "beam_block", "differential_block", "extend", "fir_pair_block", "ms2001_frames", "ss_block",
            "ss_ms1994_frames", "warm_up"]
@@ -93,7 +93,7 @@ def _gate_ref(ghist, r, n_window):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _branches(ext, h, H, start, i):  # pragma: no cover - compiled
-    """``(cF, cB, p1)`` at block sample ``i`` (``branch_signals`` of :mod:`enhancers.differential`)."""
+    """``(cF, cB, p1)`` at block sample ``i`` (``branch_signals`` of :mod:`enhancers.beam.differential`)."""
     acc1 = 0.0
     acc2 = 0.0
     for j in range(h.shape[0]):
@@ -125,13 +125,13 @@ def _gate_frozen(g_f, g_b, ghist, n_window, gate_db):  # pragma: no cover - comp
 
 @numba.njit(cache=True)
 def differential_block(ext, hist, h, lat, eq_b, eq_a, zi, sc, pp, mode, gate, ghist, n_window):  # pragma: no cover
-    """One block of ``y = cF - beta cB`` (+ equaliser) of :mod:`enhancers.eb`; returns ``y`` ``(n,)``.
+    """One block of ``y = cF - beta cB`` (+ equaliser) of :mod:`enhancers.beam.eb`; returns ``y`` ``(n,)``.
 
     ext : (2, H + n) = :func:`extend` ``(hist, block)``; hist : (2, H) last H input samples (updated)
     h : (m,) FIR of the delayed branch; lat : bulk delay L (samples)
     eq_b, eq_a : equaliser numerator/denominator padded to one length (``a[0] = 1``), or empty
         arrays for no equaliser; zi : its direct-form-II-transposed state (updated)
-    sc : [beta, phase, s_fb, s_bb, s_11, g_f, g_b, p_b, p_1] (updated; see ``enhancers.eb._DiffState``)
+    sc : [beta, phase, s_fb, s_bb, s_11, g_f, g_b, p_b, p_1] (updated; see ``enhancers.beam.eb._DiffState``)
     pp : [mu, eps, beta_min, beta_max, block_len, lam, gate_lam, gate_db]
     mode : FIXED, BLOCK_NLMS or SAMPLE_NLMS; gate : adaptation gate on (block variant)
     ghist, n_window : the gate's running-minimum window (see :func:`_gate_ref`)
@@ -203,7 +203,7 @@ def _iir(b, a, x, zi):  # pragma: no cover - compiled
 def fir_pair_block(ext, hist, h):  # pragma: no cover - compiled
     """``y[i] = sum_c sum_j h[c, j] ext[c, H + i - j]`` over ``ext = [hist | block]`` (``(n,)``); ``hist`` updated.
 
-    The two-channel FIR of :class:`enhancers.baselines.DelayAndSum` (``H = n_taps - 1``).
+    The two-channel FIR of :class:`enhancers.beam.baselines.DelayAndSum` (``H = n_taps - 1``).
     """
     H = hist.shape[1]
     n = ext.shape[1] - H
@@ -222,7 +222,7 @@ def fir_pair_block(ext, hist, h):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _berouti_gain(s, ref, pn, gp):  # pragma: no cover - compiled
-    """``subtraction_gain`` (:mod:`enhancers.ss`) of one bin: power ``s``, SNR reference ``ref``, noise ``pn``."""
+    """``subtraction_gain`` (:mod:`enhancers.single.ss`) of one bin: power ``s``, SNR reference ``ref``, noise ``pn``."""
     osub0, slope, osub_min, osub_max, subf, gain_max = gp[2], gp[3], gp[4], gp[5], gp[6], gp[7]
     x_mag = math.sqrt(s)
     snr_db = 10.0 * math.log10((ref if ref > TINY else TINY) / (pn if pn > TINY else TINY))
@@ -243,7 +243,7 @@ def _ring_min(ring, k):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, inline="always")
 def _bin_mean(s, k, h):  # pragma: no cover - compiled
-    """``enhancers.ss.average_over_bins`` of bin ``k`` (``s``: one frame's ``|X|^2`` or gain, mirrored ends)."""
+    """``enhancers.single.ss.average_over_bins`` of bin ``k`` (``s``: one frame's ``|X|^2`` or gain, mirrored ends)."""
     K = s.shape[0]
     acc = 0.0
     for j in range(-h, h + 1):
@@ -256,7 +256,7 @@ def _bin_mean(s, k, h):  # pragma: no cover - compiled
 
 @numba.njit(cache=True)
 def ss_ms1994_frames(X, P, actmin, ring, sc, g_prev, omin, gp, smoothed):  # pragma: no cover - compiled
-    """Martin 1994 tracker and Berouti gain (:mod:`enhancers.ss`) applied to frames ``X`` (``(F, K)`` complex).
+    """Martin 1994 tracker and Berouti gain (:mod:`enhancers.single.ss`) applied to frames ``X`` (``(F, K)`` complex).
 
     P, actmin : (K,) smoothed power of the last frame and the open sub-window's minimum (updated)
     ring : (W, K) minima of the last W sub-windows, oldest first (updated)
@@ -312,10 +312,10 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, g_prev, omin, gp, smoothed):  # pra
 def ss_block(block, tail, ola, queue, wst, win, rev, tw, P, actmin, ring, sc, g_prev, omin, gp,
              smoothed):  # pragma: no cover - compiled; tests/test_stream_kernels.py compares it with numpy
     """``ss``'s streaming block ``(1, b)`` end to end: the filter bank's analysis, :func:`ss_ms1994_frames`,
-    synthesis and overlap-add (the WOLA kernels of :mod:`enhancers._kernels_wola`, ``N`` a power of two).
+    synthesis and overlap-add (the WOLA kernels of :mod:`enhancers.kernels.wola`, ``N`` a power of two).
 
     Returns the ``(1, b)`` output; the filter-bank state ``tail (1, N - 1)``, ``ola (1, N - R)``,
-    ``queue (1, R)``, ``wst`` (as ``enhancers._kernels_robust.run_block``'s) and the tracker's
+    ``queue (1, R)``, ``wst`` (as ``enhancers.kernels.robust.run_block``'s) and the tracker's
     (as :func:`ss_ms1994_frames`') are updated in place.  Consecutive frames share one complex FFT.
     """
     n = win.shape[1]
@@ -426,7 +426,7 @@ def _ms2001_switch(qiav, actmin, actminsub, pminu, actbuf, lminflag, kmod, ibuf,
 
 @numba.njit(cache=True)
 def ms2001_frames(S, p, sn2, pb, pb2, pminu, actmin, actminsub, actbuf, lminflag, sc, cp, qith, nsms):  # pragma: no cover
-    """Martin 2001 tracker (:func:`enhancers.noise_tracking.ms2001_step`) for frames ``S`` ``(F, K)``.
+    """Martin 2001 tracker (:func:`enhancers.single.noise_tracking.ms2001_step`) for frames ``S`` ``(F, K)``.
 
     p, sn2, pb, pb2, pminu, actmin, actminsub : (K,) ; actbuf : (nu, K) ; lminflag : (K,) bool --
         the state after the first frame's initialisation, every array distinct (updated)
@@ -464,7 +464,10 @@ def ms2001_frames(S, p, sn2, pb, pb2, pminu, actmin, actminsub, actbuf, lminflag
 
 
 def warm_up() -> None:
-    """Compile (or load from the cache) every kernel for the argument types the enhancers pass.
+    """Compile (or load from the cache) the kernels for the argument types the enhancers pass.
+
+    Martin 2001's loop is compiled by :func:`enhancers.single.noise_tracking.warm_up`, which owns
+    its state (a kernel imports nothing above ``enhancers.core``).
 
     A stream that must not pay the JIT inside its first block calls this first (seconds with an
     empty cache, well under one with a warm one: ``benchmarks/perf/stream_jit.py``).
@@ -481,11 +484,8 @@ def warm_up() -> None:
     gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0, 0.0, 0.0, 0.0])
     ss_ms1994_frames(np.fft.rfft(x, axis=-1), np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf),
                      np.zeros(2), np.zeros(21), np.ones(21), gp, True)
-    from enhancers.noise_tracking import MS2001Config, ms2001_init, ms2001_step
-
-    ms2001_step(np.abs(np.fft.rfft(x, axis=-1)) ** 2, ms2001_init(), MS2001Config(frame_step_s=0.008))
-    from enhancers.fast_frames import wola_state
-    from enhancers.filterbank import FilterBank
+    from enhancers.core.filterbank import FilterBank
+    from enhancers.kernels.frames import wola_state
 
     fb = FilterBank(frame_len=32, hop=16)
     ss_block(x[:1].copy(), *wola_state(fb, 1, n_in=1), np.zeros(17), np.full(17, np.inf), np.full((3, 17), np.inf),

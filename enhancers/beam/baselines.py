@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
 from scenesim.errors import ParameterError
 from scenesim.validate import check_finite_number, check_int, check_positive
 
@@ -172,7 +172,7 @@ class DelayAndSum(Enhancer):
         return {"h": h, "history": np.zeros((2, h.shape[1] - 1))}
 
     def _process_block(self, block: np.ndarray, state: dict):
-        import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+        import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when streaming
 
         if 0 < block.shape[1] <= sk.MAX_BLOCK:  # compiled FIR; the history is updated in place
             hist = state["history"]

@@ -1,7 +1,7 @@
 """Shared machinery of the STFT-domain two-mic enhancers (sub-band EB, mic calibration, robust EB).
 
 Every such enhancer analyses its input with the WOLA filter bank of
-:mod:`enhancers.filterbank` (16 ms Hamming, 50 % overlap at 16 kHz by default), processes
+:mod:`enhancers.core.filterbank` (16 ms Hamming, 50 % overlap at 16 kHz by default), processes
 the complete frames with a pure step ``(Y, state, record) = frames(X, state)`` and
 resynthesises.  ``record`` holds the per-frame quantities the step adapted (beta per bin,
 rear-mic correction per bin, EQ gain per bin): with them fixed, the operation is linear,
@@ -22,8 +22,8 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d
 from scipy.signal import lfilter
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.filterbank import FilterBank, FilterBankState
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.filterbank import FilterBank, FilterBankState
 from scenesim.errors import ParameterError
 from scenesim.validate import check_int, check_positive
 

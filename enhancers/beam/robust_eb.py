@@ -3,19 +3,19 @@
 One WOLA filter bank carries every step per frame (so the latency is one frame,
 ``frame_len - 1`` samples, not one per stage):
 
-1. :func:`enhancers.mic_calibration.calibration_step` estimates the rear mic's complex
+1. :func:`enhancers.beam.mic_calibration.calibration_step` estimates the rear mic's complex
    response ``r_hat`` per bin (slow, frozen while a frontal talker dominates) and the rear
    spectrum is divided by it; in its talker-blind mode (``freeze_level_db`` set, issue 16:
    learning only where the talker is absent) beta and the DAS weight freeze on its masks too
    (which ones: ``beam_freeze``);
-2. :func:`enhancers.subband_eb.subband_beta_step` adapts one real beta per bin on the
+2. :func:`enhancers.beam.subband_eb.subband_beta_step` adapts one real beta per bin on the
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
-3. :func:`enhancers.eq.look_eq_gain` equalises the look direction with the white-noise-gain
+3. :func:`enhancers.core.eq.look_eq_gain` equalises the look direction with the white-noise-gain
    bound ``eq_noise_gain_db`` (default 9 dB: sensor self-noise leaves the output at most
    9 dB above one mic's self-noise PSD in any bin), an 80 Hz high-pass, and the 90-degree
    phase correction (``eq_phase``: the output is the look-direction speech, not its shifted
    version);
-4. the DAS fallback (``das_mix``, see :mod:`enhancers.subband_eb`): per bin, the output
+4. the DAS fallback (``das_mix``, see :mod:`enhancers.beam.subband_eb`): per bin, the output
    moves towards a delay-and-sum with the same look response where that has less noise --
    where the noise is incoherent between the mics (wind, self-noise), which no differential
    pattern can reduce.  Its weight learns only in bins the calibration does not freeze,
@@ -49,8 +49,8 @@ from 1 dB / 5 deg stays within 1.3 dB (worst: 240 deg without self-noise; 2.0 dB
 before the DAS mix weight was made noise-referenced and bin-averaged).
 
 ``trace``: ``"beta"`` and ``"alpha"`` (``(n_frames, n_bins)``) plus the calibration trace of
-:class:`enhancers.mic_calibration.MicCalibration`.  ``eb-robust-ss`` is ``eb-robust``
-followed by ``ss`` (a :class:`enhancers.chain.Chain`, prefixes ``eb`` and ``ss``).
+:class:`enhancers.beam.mic_calibration.MicCalibration`.  ``eb-robust-ss`` is ``eb-robust``
+followed by ``ss`` (a :class:`enhancers.core.chain.Chain`, prefixes ``eb`` and ``ss``).
 """
 
 from __future__ import annotations
@@ -61,17 +61,17 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers import fast_frames
-from enhancers.chain import Chain
-from enhancers.mic_calibration import (
+from enhancers.beam.mic_calibration import (
     CalibrationParams,
     _band,
     calibration_init,
     calibration_masks_step,
     calibration_trace,
 )
-from enhancers.presets import EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
-from enhancers.subband_eb import SubbandBase, SubbandEbParams, subband_init
+from enhancers.beam.presets import EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
+from enhancers.beam.subband_eb import SubbandBase, SubbandEbParams, subband_init
+from enhancers.core.chain import Chain
+from enhancers.kernels import frames as fast_frames
 from scenesim.errors import ParameterError
 from scenesim.validate import check_range
 
@@ -82,11 +82,11 @@ class RobustElkoBeamformer(SubbandBase):
     """Calibrated sub-band Elko beamformer with a noise-aware equaliser (see module docstring).
 
     Parameters (``RobustElkoBeamformer.Params``): the fields of ``eb-subband``
-    (:class:`enhancers.subband_eb.SubbandElkoBeamformer`) with the gate on
+    (:class:`enhancers.beam.subband_eb.SubbandElkoBeamformer`) with the gate on
     (``adapt_gate_db=3``, ``gate_floor_s=1``) and the noise-aware EQ on
     (``eq_noise_gain_db=9``, ``eq_highpass_hz=80``, ``eq_phase=True``) and the DAS fallback on
     (``das_mix=True``, ``mix_lam=0.99``, ``mix_smooth_bins=8``, ``mix_alpha0=0.5``), plus those of ``mic-calibration``
-    (:class:`enhancers.mic_calibration.MicCalibration`).  ``calibrate=False`` skips step 1.
+    (:class:`enhancers.beam.mic_calibration.MicCalibration`).  ``calibrate=False`` skips step 1.
 
     Examples
     --------
@@ -128,7 +128,7 @@ class RobustElkoBeamformer(SubbandBase):
         return (calibration_init(n_bins), subband_init(n_bins, float(p.beta0)))
 
     def _frames(self, X, algo, fs):
-        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.fast_frames)
+        if isinstance(algo, fast_frames.FastState):  # the compiled step (enhancers.kernels.frames)
             Y, record = algo.frames(X)
             return Y[None], algo, record
         cal, sub = algo
@@ -189,7 +189,7 @@ class TalkerBlindRobustEb(RobustElkoBeamformer):
     """``eb-robust`` learning only where the talker is absent (``"eb-robust-blind"``, issue 16).
 
     The same algorithm and fields as ``eb-robust``, with the defaults of
-    :data:`enhancers.presets.EB_ROBUST_BLIND` (what it changes and what it measured is there).
+    :data:`enhancers.beam.presets.EB_ROBUST_BLIND` (what it changes and what it measured is there).
 
     >>> import enhancers
     >>> e = enhancers.make("eb-robust-blind")
@@ -205,7 +205,7 @@ class TalkerBlindRobustEb(RobustElkoBeamformer):
 
 class EbRobustBlindSs(Chain):
     """``eb-robust-blind`` then ``ss`` with its gain averaged over bins and frames (``"eb-robust-blind-ss"``;
-    the ss stage's defaults are :data:`enhancers.presets.EB_ROBUST_BLIND_SS`)."""
+    the ss stage's defaults are :data:`enhancers.beam.presets.EB_ROBUST_BLIND_SS`)."""
 
     name = "eb-robust-blind-ss"
     version = "1"

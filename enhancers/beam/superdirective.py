@@ -1,7 +1,7 @@
 """Fixed two-mic superdirective beamformer: MVDR for the diffuse field with a white-noise-gain floor.
 
 The classic fixed peer of the differential pair (``cardioid``, ``hypercardioid``).  Per
-frequency ``f`` (on the WOLA filter bank of :mod:`enhancers.filterbank`)::
+frequency ``f`` (on the WOLA filter bank of :mod:`enhancers.core.filterbank`)::
 
     d(f)      = [1, exp(-j 2 pi f T)],   T = spacing_m cos(look_az_deg) / c_mps
                                           steering vector, relative to the reference mic p1
@@ -21,8 +21,8 @@ mismatch.
 
 Directivity index and WNG of any weights: :func:`directivity_db`, :func:`wng_db`.
 
-Streaming blocks of up to :data:`enhancers.stream_kernels.MAX_BLOCK` samples run in one numba call
-(:func:`enhancers.stream_kernels.beam_block`: analysis, weights, synthesis; power-of-two frame
+Streaming blocks of up to :data:`enhancers.kernels.stream.MAX_BLOCK` samples run in one numba call
+(:func:`enhancers.kernels.stream.beam_block`: analysis, weights, synthesis; power-of-two frame
 lengths); the numpy filter-bank steps stay the reference (``MAX_BLOCK = 0``) and batch's path.
 
 Reference: H. Cox, R. M. Zeskind, T. Kooij, "Practical supergain", IEEE TASSP 34(3), 1986;
@@ -38,8 +38,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from enhancers.base import Enhancer, Params, Result, Tags, check_component
-from enhancers.filterbank import FilterBank, FilterBankState
+from enhancers.core.base import Enhancer, Params, Result, Tags, check_component
+from enhancers.core.filterbank import FilterBank, FilterBankState
 from scenesim.errors import ParameterError
 from scenesim.validate import check_finite_number, check_int, check_positive, check_range
 
@@ -229,25 +229,25 @@ class Superdirective(Enhancer):
     @functools.cached_property
     def _wola(self):
         """Fresh fused-kernel filter-bank arrays (a callable), None when the frame length is not a power of two."""
-        from enhancers.fast_frames import wola_maker
+        from enhancers.kernels.frames import wola_maker
 
         return wola_maker(self.filterbank, 1)
 
     def _process_block(self, block: np.ndarray, state: _SdState):
         """Blocks of up to ``stream_kernels.MAX_BLOCK`` samples: one compiled call
-        (:func:`enhancers.stream_kernels.beam_block`) when the frame length is a power of two; the
+        (:func:`enhancers.kernels.stream.beam_block`) when the frame length is a power of two; the
         numpy steps below stay the reference (and batch's path)."""
         if 0 < block.shape[-1] and self._wola is not None:
-            import enhancers.stream_kernels as sk  # lazy: numba's import is only paid when streaming
+            import enhancers.kernels.stream as sk  # lazy: numba's import is only paid when streaming
 
             if block.shape[-1] <= sk.MAX_BLOCK:
                 if state.fused is None:
-                    from enhancers.fast_frames import wola_from
+                    from enhancers.kernels.frames import wola_from
 
                     state.fused = wola_from(self._wola(), state.analysis, state.synthesis)
                 return sk.beam_block(np.ascontiguousarray(block, dtype=float), *state.fused, state.wc), state
         if state.fused is not None:  # back to the numpy steps: they take the state over
-            from enhancers.fast_frames import wola_back
+            from enhancers.kernels.frames import wola_back
 
             state.analysis = state.synthesis = wola_back(state.fused)
             state.fused = None

@@ -2,7 +2,7 @@
 
 A library such as WebRTC's noise suppressor or RNNoise takes exactly ``F`` samples per
 call (10 ms) and keeps its own opaque state.  :class:`FramedBlackBox` turns it into a
-streaming enhancer with the project's time alignment (:mod:`enhancers.base`): input is
+streaming enhancer with the project's time alignment (:mod:`enhancers.core.base`): input is
 buffered until a frame is complete, the frame goes through the library, and the output
 queue starts with ``F - 1`` zeros, so ``output[n]`` depends on input up to ``n`` and
 is the library's output delayed by ``F - 1`` samples (plus the library's own delay,
@@ -28,7 +28,7 @@ import numba
 import numpy as np
 from scipy.signal import firwin
 
-from enhancers.base import Enhancer, Result, Tags
+from enhancers.core.base import Enhancer, Result, Tags
 
 __all__ = ["FramedBlackBox", "Resampler16to48", "to_int16_scale"]
 

@@ -1,9 +1,9 @@
 """Compiled frame step of ``mic-calibration``, ``eb-subband`` and ``eb-robust`` (issue 20: streaming speed).
 
 Streaming in 10 ms blocks hands the enhancers one or two STFT frames per call; the numpy step of
-:mod:`enhancers.mic_calibration` and :mod:`enhancers.subband_eb` then spends ~2 ms per block in ~150
+:mod:`enhancers.beam.mic_calibration` and :mod:`enhancers.beam.subband_eb` then spends ~2 ms per block in ~150
 small numpy calls.  This module packs the parameters, per-bin constants and state into arrays once per
-stream and runs the frames through one numba kernel (:func:`enhancers._kernels_robust.run_frames`).
+stream and runs the frames through one numba kernel (:func:`enhancers.kernels.robust.run_frames`).
 Batch processing runs the same kernel on all frames, so batch equals streaming exactly.
 
 The numpy implementations stay the reference (``tests/test_fast_frames.py`` compares the two to
@@ -31,8 +31,8 @@ import math
 
 import numpy as np
 
-from enhancers.eq import look_eq_gain
-from enhancers.stft_stage import bin_omega
+from enhancers.core.eq import look_eq_gain
+from enhancers.core.stft_stage import bin_omega
 
 __all__ = ["COMPILED", "FastState", "FusedStreaming", "kernel_supports", "new_state", "wola_back", "wola_from",
            "wola_maker", "wola_state"]
@@ -71,10 +71,10 @@ def kernel_supports(p) -> bool:
 
 
 class FastState:
-    """One stream's arrays (see :mod:`enhancers._kernels_robust` for the rows), updated in place.
+    """One stream's arrays (see :mod:`enhancers.kernels.robust` for the rows), updated in place.
 
     ``wola``: the fused streaming step's filter-bank arrays (None where the frame length is not a
-    power of two: blocks then go through :class:`enhancers.filterbank.FilterBank` and :meth:`frames`).
+    power of two: blocks then go through :class:`enhancers.core.filterbank.FilterBank` and :meth:`frames`).
     """
 
     __slots__ = ("args", "calibrate", "beam", "das_mix", "wola")
@@ -84,7 +84,7 @@ class FastState:
 
     def block(self, block: np.ndarray) -> np.ndarray:
         """One streaming block ``(2, b)`` -> output samples ``(C, b)`` (analysis, frames, synthesis fused)."""
-        from enhancers._kernels_robust import run_block  # lazy: numba
+        from enhancers.kernels.robust import run_block  # lazy: numba
 
         return run_block(np.ascontiguousarray(block, dtype=float), *self.wola, *self.args)
 
@@ -92,7 +92,7 @@ class FastState:
         """Frames ``X (2, F, K)`` -> ``(Y (2, F, K) or (F, K), record)``: the calibrated pair (calibration
         only) or the beamformer output, and the record of the reference step (``r_hat``, ``frozen``,
         ``beta``, ``eq``, ``alpha``, as applicable)."""
-        from enhancers._kernels_robust import run_frames  # lazy: numba's import costs ~0.3 s
+        from enhancers.kernels.robust import run_frames  # lazy: numba's import costs ~0.3 s
 
         _, F, K = X.shape
         X = np.ascontiguousarray(X, dtype=complex)
@@ -144,8 +144,8 @@ def _beam_constants(p, fs: int, gate_window: int):
 
 
 def _bin_constants(p, fs: int, delay: float, K: int, band: slice | None) -> np.ndarray:
-    """Per-bin constants ``(N_CST, K)``: the rows named in :mod:`enhancers._kernels_robust`."""
-    from enhancers import _kernels_robust as kr
+    """Per-bin constants ``(N_CST, K)``: the rows named in :mod:`enhancers.kernels.robust`."""
+    from enhancers.kernels import robust as kr
 
     n = int(p.frame_len)
     omega = bin_omega(n)
@@ -156,7 +156,7 @@ def _bin_constants(p, fs: int, delay: float, K: int, band: slice | None) -> np.n
     if getattr(p, "eq", False):
         cst[kr.K_GSTATIC] = look_eq_gain(np.zeros(K), omega=omega, delay_samples=delay, freqs_hz=omega / (2 * np.pi) * fs,
                                          max_gain_db=float(p.eq_max_gain_db))
-        if float(p.eq_highpass_hz) > 0:  # enhancers.eq's Butterworth magnitude (the reference multiplies by it last)
+        if float(p.eq_highpass_hz) > 0:  # enhancers.core.eq's Butterworth magnitude (the reference multiplies by it last)
             r = (np.asarray(omega / (2 * np.pi) * fs, dtype=float) / float(p.eq_highpass_hz)) ** 2
             cst[kr.K_HPF] = r / np.sqrt(1.0 + r * r)
     cst[kr.K_COSWT] = np.cos(wt)
@@ -172,13 +172,13 @@ def wola_state(filterbank, n_out: int, n_in: int = 2) -> tuple | None:
     ``stream_kernels.ss_block``): ``(tail (n_in, N - 1), ola (n_out, N - R), queue (n_out, R), wst, windows
     (2, N), FFT tables)``; None unless ``N = 2^k`` and ``R`` divides ``N``.
 
-    >>> from enhancers.filterbank import FilterBank
+    >>> from enhancers.core.filterbank import FilterBank
     >>> [a.shape for a in wola_state(FilterBank(frame_len=8, hop=4), 1, n_in=1)[:3]]
     [(1, 7), (1, 4), (1, 4)]
     >>> wola_state(FilterBank(frame_len=12, hop=4), 1) is None
     True
     """
-    from enhancers._kernels_wola import fft_tables
+    from enhancers.kernels.wola import fft_tables
 
     n, r = filterbank.frame_len, filterbank.hop
     if n & (n - 1) or n % r:
@@ -192,7 +192,7 @@ def wola_state(filterbank, n_out: int, n_in: int = 2) -> tuple | None:
 def wola_maker(filterbank, n_out: int, n_in: int = 2):
     """A callable returning fresh :func:`wola_state` arrays, or None when the fused step does not apply.
 
-    >>> from enhancers.filterbank import FilterBank
+    >>> from enhancers.core.filterbank import FilterBank
     >>> wola_maker(FilterBank(frame_len=12, hop=4), 1) is None
     True
     """
@@ -203,7 +203,7 @@ def wola_maker(filterbank, n_out: int, n_in: int = 2):
 
 def wola_from(wola: tuple, analysis, synthesis) -> tuple:
     """``wola`` (:func:`wola_state`'s arrays) filled with a stream's filter-bank state: ``analysis``'s
-    ``tail`` and ``phase``, ``synthesis``' ``ola`` and ``queue`` (:class:`enhancers.filterbank.FilterBankState`)."""
+    ``tail`` and ``phase``, ``synthesis``' ``ola`` and ``queue`` (:class:`enhancers.core.filterbank.FilterBankState`)."""
     tail, ola, queue, wst = wola[:4]
     tail[:], ola[:] = analysis.tail, synthesis.ola
     ql = synthesis.queue.shape[1]  # always R - 1 - phase < R
@@ -213,9 +213,9 @@ def wola_from(wola: tuple, analysis, synthesis) -> tuple:
 
 
 def wola_back(wola: tuple):
-    """The :class:`enhancers.filterbank.FilterBankState` held by ``wola``'s arrays (copies; the inverse of
+    """The :class:`enhancers.core.filterbank.FilterBankState` held by ``wola``'s arrays (copies; the inverse of
     :func:`wola_from`): its ``tail``/``phase`` serve an analysis step, its ``ola``/``queue`` a synthesis step."""
-    from enhancers.filterbank import FilterBankState
+    from enhancers.core.filterbank import FilterBankState
 
     tail, ola, queue, wst = wola[:4]
     return FilterBankState(tail=tail.copy(), phase=int(wst[0]), ola=ola.copy(), queue=queue[:, :wst[1]].copy())
@@ -225,8 +225,8 @@ def new_state(p, fs: int, n_bins: int, *, delay: float, filterbank, band: slice 
               gate_window: int = 0, beam: bool = True) -> FastState:
     """A fresh stream's state for params ``p``: the calibration when ``band`` (its ``fit_band_hz`` bins)
     is given, then the sub-band beamformer when ``beam`` (``gate_window``: its gate's floor in frames);
-    ``filterbank`` (:class:`enhancers.filterbank.FilterBank`): the fused streaming step's."""
-    from enhancers import _kernels_robust as kr
+    ``filterbank`` (:class:`enhancers.core.filterbank.FilterBank`): the fused streaming step's."""
+    from enhancers.kernels import robust as kr
 
     K = n_bins
     par_d, ipar_d, bounds, nwc = {}, {"I_CAL": 0, "I_BEAM": 0}, np.zeros((2, K), dtype=np.int64), 0

@@ -8,7 +8,7 @@ estimate pooled over ``K`` cells goes as ``sqrt(sum rho) / K`` (``rho`` = talker
 cell): one parameter fitted over a whole band pools ~100 times more cells per frame than one per bin.
 
 * Direction model (:func:`direction_beta_step`): every bin's beta is the closed form (eq. 1 of
-  :mod:`enhancers.subband_eb`) of ONE rear direction per band, ``beta_k = B(c, w_k T)`` with
+  :mod:`enhancers.beam.subband_eb`) of ONE rear direction per band, ``beta_k = B(c, w_k T)`` with
   ``c = cos theta`` in ``[-1, 0]`` (theta in [90, 180] deg): a rear plane wave is nulled at every
   frequency by one number.  ``c`` follows a normalised gradient of ``sum_k |Y_k|^2`` over the
   band's cells (NLMS with regressor ``x_k = cB_k dB/dc``), the numerator over the cells the gate
@@ -57,7 +57,7 @@ __all__ = ["band_onehot", "beta_from_cos", "dbeta_dcos", "direction_beta_step", 
 
 
 def beta_from_cos(c, omega_t) -> np.ndarray:
-    """Eq. 1 of :mod:`enhancers.subband_eb`: ``sin(wT(1 + c)/2) / sin(wT(1 - c)/2)``, 0 where ``wT = 0``.
+    """Eq. 1 of :mod:`enhancers.beam.subband_eb`: ``sin(wT(1 + c)/2) / sin(wT(1 - c)/2)``, 0 where ``wT = 0``.
 
     ``c`` = cos of the rear direction (broadcast with ``omega_t``, rad).
 

@@ -9,7 +9,7 @@ RNNoise runs at 48 kHz on 10 ms frames (480 samples) of float samples in int16 u
 This wrapper takes 16 kHz audio: each 10 ms frame (160 samples) is upsampled by 3
 (zero-stuffing and a 97-tap linear-phase low-pass, 7.6 kHz cutoff, Kaiser beta 8),
 denoised, low-pass filtered by the same FIR and decimated by 3
-(:class:`enhancers.blackbox.Resampler16to48`, polyphase; both filters keep their state
+(:class:`enhancers.peers.blackbox.Resampler16to48`, polyphase; both filters keep their state
 across frames, so the resampling streams).
 
 Latency (declared in ``tags``): 159 samples of frame buffering + 32 (the two FIRs, 2 x 48
@@ -32,8 +32,8 @@ from typing import ClassVar
 import numpy as np
 from pyrnnoise.rnnoise import lib as _lib
 
-from enhancers.base import Params
-from enhancers.blackbox import INT16_SCALE, FramedBlackBox, Resampler16to48
+from enhancers.core.base import Params
+from enhancers.peers.blackbox import INT16_SCALE, FramedBlackBox, Resampler16to48
 
 __all__ = ["RNNoise"]
 
