@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("thesis-repro", 18, 3), ("phone", 120, 10), ("mismatch", 96, 4), ("peers", 45, 12), ("reverb", 80, 10),
+    [("thesis", 18, 4), ("thesis-text", 18, 3), ("thesis-fit", 18, 3), ("phone", 120, 10), ("mismatch", 96, 4), ("peers", 45, 12), ("reverb", 80, 10),
      ("distance", 36, 10), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
@@ -90,7 +90,14 @@ def test_presets_load_with_their_documented_sizes(name, n_conditions, n_enhancer
     assert sweep.name == name and sweep.description
     assert len(sweep.conditions()) == n_conditions
     assert len(sweep.enhancers) == n_enhancers
-    assert set(PRESETS) == {"thesis", "thesis-repro", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke"}
+    assert set(PRESETS) == {"thesis", "thesis-text", "thesis-fit", "thesis-repro", "phone", "mismatch", "peers",
+                            "reverb", "distance", "angles", "smoke"}
+
+
+def test_thesis_repro_is_an_alias_of_thesis_fit():
+    alias, fit = load_sweep("thesis-repro"), load_sweep("thesis-fit")
+    assert alias.name == "thesis-fit" and alias.conditions() == fit.conditions()
+    assert alias.enhancer_params == fit.enhancer_params
 
 
 def test_reverb_draws_talker_and_noise_per_seed_the_same_at_every_rt60():

@@ -199,3 +199,38 @@ def test_eb_beta_limits_and_one_sample_internal_delay(update):
         enhancers.make("eb", beta_min=0.5, beta_max=0.2)
     eb = enhancers.make("eb", spacing_m=0.03, t_samples=1.0)
     assert eb.filters(FS).delay_samples == 1.0
+
+
+def test_thesis_text_takes_the_text_not_the_fit():
+    """The text's reading: angles from the axis, a truncated rectangular sinc, beta free in [0, 1] (the
+    abstract), the quoted one-sample delay and SS values; the fit's unknowns (broadside, Hann window, beta
+    capped at 0.2, a 60 Hz low-pass) are not borrowed."""
+    sweep = load_sweep("thesis-text")
+    cond = sweep.conditions()[0]
+    assert (cond.far_field_method, cond.azimuth_from, cond.fd_window) == ("thesis", "axis", "rect")
+    assert (cond.azimuth_from, cond.fd_taps, cond.fd_window) != BEST.scene_key()
+    eb = dict(sweep.enhancer_params["eb"])
+    assert (eb["beta_min"], eb["beta_max"], eb["t_samples"], eb["update"]) == (0.0, 1.0, 1.0, "block")
+    assert "mu" not in eb and "eq_fc_hz" not in eb  # lost from the text: the package defaults
+    assert dict(sweep.enhancer_params["ss"]) == {"n_sub": 8, "sub_len": 25, "omin": 0.99, "alpha": 0.95}
+    assert dict(sweep.enhancer_params["eb-ss"]) == {"eb": eb, "ss": dict(sweep.enhancer_params["ss"])}
+
+
+def _scene_row(enhancer, snr_in, snr_i, **scene):
+    row = _row(enhancer, snr_in, snr_i, 3.0)
+    row["condition_json"] = json.dumps({"far_field_method": "thesis", **scene})
+    return row
+
+
+def test_report_tells_the_text_reading_from_the_fitted_one():
+    from benchmarks.report.thesis_repro import repro_section
+
+    azimuth, taps, window = BEST.scene_key()
+    fit = [_scene_row("eb", 0.0, 13.0, azimuth_from=azimuth, fd_taps=taps, fd_window=window)]
+    text_rows = [_scene_row("eb", 0.0, 20.0)]  # the sweep defaults: axis, 33 taps, rect (left out of the JSON)
+    text = "\n".join(repro_section(fit + text_rows))
+    first, second = text.index("preset `thesis-text`"), text.index("preset `thesis-fit`")
+    assert first < second  # the text's reading comes first, the fit after it
+    assert text.count("in-sample fit") == 1 and text.index("in-sample fit") > second
+    assert "| 7.1 | EB | babble | 0 | 20.00 |" in text[:second] and "| 7.1 | EB | babble | 0 | 13.00 |" in text[second:]
+    assert "What no reading reproduces" in text

@@ -72,7 +72,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-PRESETS = ("thesis", "thesis-repro", "phone", "mismatch", "peers", "reverb", "distance", "angles", "smoke")
+PRESETS = ("thesis", "thesis-text", "thesis-fit", "thesis-repro", "phone", "mismatch", "peers", "reverb",
+           "distance", "angles", "smoke")
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1
@@ -629,10 +630,15 @@ def _make_condition(values: dict[str, Any], rooms: Mapping[str, Room]) -> Condit
 # -- loading -------------------------------------------------------------------------------
 
 
+#: Old preset names that load another preset's file (the rows carry the new name).
+PRESET_ALIASES = {"thesis-repro": "thesis-fit"}
+
+
 def preset_text(name: str) -> str:
-    """The TOML text of a shipped preset."""
+    """The TOML text of a shipped preset (an alias reads its target's file)."""
     if name not in PRESETS:
         raise ConfigError(f"unknown preset {name!r}: expected one of {', '.join(PRESETS)} or a .toml file")
+    name = PRESET_ALIASES.get(name, name)
     return resources.files("benchmarks").joinpath("presets", f"{name}.toml").read_text("utf-8")
 
 
