@@ -1,6 +1,6 @@
-"""``benchmarks.perf.calibration_jitter``'s decomposition of ``eb-robust``'s speech jitter per adapted quantity.
+"""``benchmarks.studies.calibration_jitter``'s decomposition of ``eb-robust``'s speech jitter per adapted quantity.
 
-Oracle: :func:`benchmarks.perf.calibration_jitter.measure_condition`, which measures the jitter from the
+Oracle: :func:`benchmarks.studies.calibration_jitter.measure_condition`, which measures the jitter from the
 enhancer's public replays (``Result.replay``), a path independent of the record swapping under test.
 """
 
@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-from benchmarks.perf.calibration_jitter import measure_condition, swap_jitter
+from benchmarks.studies.calibration_jitter import measure_condition, swap_jitter
 from benchmarks.run.sweep import load_sweep
 
 
@@ -39,7 +39,7 @@ def test_a_quantity_not_adapted_is_absent_and_a_fixed_one_does_not_jitter(condit
 def test_ss_floor_keeps_only_conditions_with_an_identical_front_end():
     """Hand-built rows: ``eb-robust-ss``'s jitter is kept where ``eb-robust``'s is below -100 dB in the same
     condition and the input SNR is >= 15 dB, nowhere else."""
-    from benchmarks.perf.calibration_jitter import ss_floor
+    from benchmarks.studies.calibration_jitter import ss_floor
 
     def row(system, snr, seed, jitter):
         return dict(system=system, noise="wind", snr=snr, seed=seed, jitter=jitter)
@@ -53,7 +53,7 @@ def test_ss_floor_keeps_only_conditions_with_an_identical_front_end():
 def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
     """``--ss``: the parameters land on ``eb-robust-ss``'s ``ss`` stage (its ``eb`` stage keeps the given
     ``--set`` values and otherwise its defaults) and on ``ss`` run alone; without them both are the defaults."""
-    from benchmarks.perf.calibration_jitter import _make
+    from benchmarks.studies.calibration_jitter import _make
     from enhancers.core.registry import make
 
     ss = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
@@ -71,7 +71,7 @@ def test_registered_blind_systems_are_the_settled_setting():
     (exactly: one computation).  Control: ``eb-robust-ss``'s output differs."""
     import numpy as np
 
-    from benchmarks.perf.calibration_jitter import COMBINED_SS, FRAME_SETTLED, _make
+    from benchmarks.studies.calibration_jitter import COMBINED_SS, FRAME_SETTLED, _make
     from enhancers.core.registry import make
 
     measured = _make("eb-robust-ss", False, FRAME_SETTLED, COMBINED_SS)
@@ -88,7 +88,7 @@ def test_registered_blind_systems_are_the_settled_setting():
 def test_first_seed_picks_seeds_past_the_presets_own(monkeypatch):
     """``--first-seed 5 --seeds 2``: the conditions of seeds 5 and 6 (phones and utterances the settings were not
     tuned on), every other axis as given; by default seeds 0 .. N-1 of the preset itself."""
-    import benchmarks.perf.calibration_jitter as cj
+    import benchmarks.studies.calibration_jitter as cj
 
     seen = []
     monkeypatch.setattr(cj, "measure_condition", lambda cond, *a, **k: seen.append(cond) or [])
@@ -104,7 +104,7 @@ def test_combined_setting_is_every_piece_under_the_explicit_values():
     ``--set`` / ``--ss`` winning; without it only the explicit values."""
     import argparse
 
-    from benchmarks.perf.calibration_jitter import COMBINED, COMBINED_SS, mode_params
+    from benchmarks.studies.calibration_jitter import COMBINED, COMBINED_SS, mode_params
 
     def args(**kw):
         base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
@@ -132,7 +132,7 @@ def test_frame_settings_are_combined_with_the_frame_rule():
     ``ss`` stage, ``--set`` winning; all valid ``eb-robust`` parameter sets."""
     import argparse
 
-    from benchmarks.perf.calibration_jitter import (
+    from benchmarks.studies.calibration_jitter import (
         COMBINED,
         COMBINED_SS,
         FRAME,
@@ -191,7 +191,7 @@ def test_frame_settings_are_combined_with_the_frame_rule():
 def test_bad_key_json_is_one_line_not_a_traceback(argv, needle, capsys):
     """A value that is not JSON (an unquoted string) or an item without ``=`` stops with argparse's one-line
     error (exit status 2) naming the option and the item, before any condition is rendered."""
-    from benchmarks.perf.calibration_jitter import main
+    from benchmarks.studies.calibration_jitter import main
 
     with pytest.raises(SystemExit) as exc:
         main(argv)

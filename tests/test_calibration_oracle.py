@@ -1,4 +1,4 @@
-"""The oracle bound of issue 16 part 3 (benchmarks/perf/calibration_oracle.py).
+"""The oracle bound of issue 16 part 3 (benchmarks/studies/calibration_oracle.py).
 
 Oracle of the main test: in cells where the talker is exactly absent, the mixtures ``s + n`` and
 ``s - n`` are the same up to sign, so a calibration that learns only there must give the *same*
@@ -10,7 +10,7 @@ import pytest
 
 import enhancers
 import enhancers.beam.mic_calibration as mc
-from benchmarks.perf.calibration_oracle import oracle_learning, oracle_mask, oracle_params
+from benchmarks.studies.calibration_oracle import oracle_learning, oracle_mask, oracle_params
 
 FS = 16000
 
@@ -68,7 +68,7 @@ def test_oracle_mask_thresholds_the_talker_to_noise_ratio_per_cell():
 
 
 def test_bad_set_is_one_line_not_a_traceback(capsys):
-    from benchmarks.perf.calibration_oracle import main
+    from benchmarks.studies.calibration_oracle import main
 
     with pytest.raises(SystemExit) as exc:
         main(["--set", "mu=x"])
@@ -84,7 +84,7 @@ def test_frame_oracle_decides_whole_frames():
     dB every frame is, in every bin."""
     import numpy as np
 
-    from benchmarks.perf.calibration_oracle import oracle_mask
+    from benchmarks.studies.calibration_oracle import oracle_mask
     from enhancers.core.filterbank import FilterBank
 
     fb = FilterBank(frame_len=256, hop=128)

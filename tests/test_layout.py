@@ -8,7 +8,7 @@ below.  A module may import its own layer and the layers beneath it, never one a
     < enhancers.core < enhancers.kernels < enhancers.single < enhancers.beam < enhancers.peers
     < enhancers.testing, data_recipes < benchmarks core (excinfo, environment) < benchmarks.metrics
     < benchmarks.store < benchmarks.run < benchmarks.thesis < benchmarks.report < benchmarks.cli
-    < benchmarks.perf
+    < benchmarks.perf < benchmarks.studies
 
 Within a floor imports may go sideways, but never round a circle: the second check walks the
 whole import graph (lazy imports included) and fails on any cycle.
@@ -45,9 +45,11 @@ LAYERS = [
     ("benchmarks.store", 6),
     ("benchmarks.run", 7),
     ("benchmarks.thesis", 8),
+    ("benchmarks.tune", 8.5),
     ("benchmarks.report", 9),
     ("benchmarks.cli", 10),
     ("benchmarks.perf", 11),
+    ("benchmarks.studies", 12),
 ]
 EXEMPT = {"scenesim", "scenesim.render", "benchmarks", "enhancers"}  # re-export surfaces
 
@@ -169,7 +171,8 @@ def test_the_layer_check_sees_an_upward_import(module, upward):
 @pytest.mark.parametrize("package", ["scenesim/room", "scenesim/scene", "enhancers/core", "enhancers/kernels",
                                      "enhancers/single", "enhancers/beam", "enhancers/peers", "benchmarks/metrics",
                                      "benchmarks/store", "benchmarks/run", "benchmarks/thesis",
-                                     "benchmarks/report", "benchmarks/cli", "benchmarks/perf"])
+                                     "benchmarks/report", "benchmarks/cli", "benchmarks/perf",
+                                     "benchmarks/studies"])
 def test_each_job_is_a_package(package):
     assert (ROOT / package / "__init__.py").exists() or package == "benchmarks/perf"
     assert list((ROOT / package).glob("*.py"))
@@ -207,3 +210,21 @@ def test_readme_package_table_matches_the_tree():
             for p in (ROOT / pkg).iterdir() if p.is_dir() and any(p.glob("*.py"))}
     assert tree <= rows, f"README lacks rows for {sorted(tree - rows)}"
     assert all((ROOT / r).is_dir() for r in rows if r.endswith("/")), rows
+
+
+def _scripts(folder: str) -> list[str]:
+    return sorted(p.stem for p in (ROOT / "benchmarks" / folder).glob("*.py") if p.stem != "__init__")
+
+
+@pytest.mark.parametrize("module", [f"benchmarks.{d}.{s}" for d in ("perf", "studies") for s in _scripts(d)])
+def test_every_benchmark_script_imports_against_todays_api(module):
+    # A script that no longer runs against today's API fails here rather than on its next user.
+    import importlib
+
+    mod = importlib.import_module(module)
+    assert mod.__doc__, f"{module} has no docstring saying what it measures"
+
+
+def test_every_study_has_an_index_line():
+    index = (ROOT / "benchmarks" / "studies" / "README.md").read_text(encoding="utf-8")
+    assert [s for s in _scripts("studies") if f"`{s}`" not in index] == []

@@ -1,6 +1,6 @@
-"""``benchmarks.perf.ss_gain_candidates`` (ss's gain on ``eb-robust``'s replayed parts) against the chain itself.
+"""``benchmarks.studies.ss_gain_candidates`` (ss's gain on ``eb-robust``'s replayed parts) against the chain itself.
 
-Oracle: :func:`benchmarks.perf.calibration_jitter.measure_condition` on ``eb-robust-ss`` (the registered chain,
+Oracle: :func:`benchmarks.studies.calibration_jitter.measure_condition` on ``eb-robust-ss`` (the registered chain,
 run on both Hagerman mixtures and replayed through its composed stages), a path that shares neither the
 stage-by-stage replay nor the ``s - n = F s - F n`` shortcut under test.
 """
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.perf.calibration_jitter import measure_condition
-from benchmarks.perf.ss_gain_candidates import CANDIDATES, FIXED_FRONT_END, measure
+from benchmarks.studies.calibration_jitter import measure_condition
+from benchmarks.studies.ss_gain_candidates import CANDIDATES, FIXED_FRONT_END, measure
 from benchmarks.run.sweep import load_sweep
 
 

@@ -18,7 +18,7 @@ cell): one parameter fitted over a whole band pools ~100 times more cells per fr
   averages of the band's *unfrozen* cells only (a per-bin smoothing would mix frozen talker cells
   of neighbouring bins in), shrunk towards the prior ``alpha0`` while few cells were learned.
 
-Measured (``python -m benchmarks.perf.calibration_jitter [--data-dir ../shared/data] --seeds 2 --snrs 15 20 25
+Measured (``python -m benchmarks.studies.calibration_jitter [--data-dir ../shared/data] --seeds 2 --snrs 15 20 25
 --skip-mismatch --decompose --pooled``, i.e. ``beta_model="direction"``, ``mu=0.015``, ``beta_norm="learned"``,
 ``mix_bands_hz=(1000, 4000)``, ``mix_ramp_cells=300``; eb-robust's jitter with only beta (+EQ) / only alpha
 swapped between the ``s + n`` and ``s - n`` runs, worst over the 6 rows per noise, babble / factory /
@@ -36,7 +36,7 @@ factory-hall / wind; load ~5 on 2 cores):
 * with ``eq_bound_beta=0`` too (the EQ no longer follows beta): beta worst -28.1 / -37.6 / -30.0 / -65.8
   (shared), -35.7 / -41.1 / -17.9 / -96.2 (built-in); SNR-I 4.65 / 9.23 / 2.48 / 8.87 (shared), 5.18 / 9.52 /
   2.10 / 7.52 (built-in).
-* issue 12's scenes (``benchmarks.perf.robust_eb``, 2 seeds): ideal / 1 dB-5 deg SNR-I at 135 deg 35.5 /
+* issue 12's scenes (``benchmarks.studies.robust_eb``, 2 seeds): ideal / 1 dB-5 deg SNR-I at 135 deg 35.5 /
   32.9 dB (default 28.3 / 28.3), 240 deg 35.9 / 28.0 (26.5 / 26.0), diffuse 3.3 / 3.2, wind 8.6 / 8.2: better
   than the default with or without the mismatch, but one direction cannot absorb what the calibration
   leaves of the mismatch, so the loss re its own deeper ideal null is 2.6 / 8.0 dB at 135 / 240 deg.

@@ -101,11 +101,11 @@ where the talker is absent:
 Where the talker is absent the two mixtures are the same up to sign, so W1 = W2 there
 (tests/test_mic_calibration.py: identical estimates through a talker burst).  ``eb-robust``
 then freezes beta and the DAS weight on the same mask.  Measured on ``phone`` (built-in data,
-5 seeds, ``python -m benchmarks.perf.calibration_jitter --blind``): ``eb-robust``'s
+5 seeds, ``python -m benchmarks.studies.calibration_jitter --blind``): ``eb-robust``'s
 ``speech_jitter_db`` from -17..-9 dB (the worst row per noise at 15-25 dB input) to
 -30..-40 dB, replay and Hagerman SNR-I within 3 dB on 100 % of the rows (82 % before); but 1-6 dB
 less mean SNR-I (factory -6.4 dB) and 4-5 dB more loss from a 1 dB / 5 deg mismatch at 135
-/ 240 deg in ``benchmarks.perf.robust_eb``'s scene: with 6 s from a cold start, or
+/ 240 deg in ``benchmarks.studies.robust_eb``'s scene: with 6 s from a cold start, or
 babble/factory whose own level swings trip the level rule, the estimates learn from ~2 % of
 the cells.  Hence opt-in.
 
@@ -125,7 +125,7 @@ Variants tried to win that back (issue 16, second round; all opt-in, none meets 
   rules nearly always freeze, the per-bin count stays below ``ramp_frames`` for seconds and the
   estimate stays shrunk towards 1 (uncalibrated).
 
-Measured (``python -m benchmarks.perf.calibration_jitter --blind [--set ...] --snrs 5 15 25 --seeds
+Measured (``python -m benchmarks.studies.calibration_jitter --blind [--set ...] --snrs 5 15 25 --seeds
 1``, seed 0, built-in data; load 6-16 on 2 cores): the best is ``freeze_level_db=3``,
 ``ramp_frames=40``, ``ramp_over_band=True``, ``level_frontal_db=-1``, ``beam_freeze="level"``
 (``calibration_jitter.TALKER_BLIND``): ``eb-robust-ss`` jitter at >= 15 dB -28..-40 dB (3 of 8 rows
@@ -153,8 +153,8 @@ uncalibrated ratio cannot do this at low frequencies: the mismatch fills the bac
 firings stop the averages only, or (``cal_frontal_beam``) join the level rule's mask (hold, look
 ahead, and beta / the DAS weight per ``beam_freeze``).
 
-Measured (``python -m benchmarks.perf.calibration_jitter --direction --seeds 5 --snrs 15 20 25``, 60
-conditions; load ~8 on 2 cores), ``cal_frontal_db=-2`` (:data:`benchmarks.perf.calibration_jitter.DIRECTION`):
+Measured (``python -m benchmarks.studies.calibration_jitter --direction --seeds 5 --snrs 15 20 25``, 60
+conditions; load ~8 on 2 cores), ``cal_frontal_db=-2`` (:data:`benchmarks.studies.calibration_jitter.DIRECTION`):
 built-in data, ``eb-robust-ss`` jitter at >= 15 dB worst -9.9 dB (26 of 60 rows above -30; the
 default 60 of 60), replay = Hagerman within 3 dB on 95 % (default 47 %), SNR-I vs the default babble
 -0.2, factory -2.1, factory-hall +0.1, wind -12.2 dB; mismatch loss (2 seeds) 5.1 / 0.3 / -1.6 dB at
@@ -207,7 +207,7 @@ a ~1/6-octave band does, so those terms average out.  The freeze rules, the clip
 start-up ramp stay; the ramp then counts every learned cell of ``model_band_hz`` (the same for every bin).
 Accuracy (tests, 8 s, 1 dB / 5 deg / corners 80 and 120 Hz): diffuse noise 0.05 dB / 1.0 deg worst bin
 to 7 kHz (per bin: 0.34 dB / 5.5 deg), one plane wave 0.02 dB / 0.44 deg (0.17 dB / 0.97 deg).
-Measured on ``phone`` (``python -m benchmarks.perf.calibration_jitter --seeds 2 --snrs 15 20 25
+Measured on ``phone`` (``python -m benchmarks.studies.calibration_jitter --seeds 2 --snrs 15 20 25
 --decompose --set model='"hp1"'``, ``eb-robust``'s rows above -30 dB; load ~4 on 2 cores): the talker's
 part through ``r_hat`` (the decomposition's ``r_hat`` column) drops from -2..-28 dB (default) to
 -23..-59 dB on ``../shared/data`` and from -10..-36 to -28..-51 dB on the built-in data; ``eb-robust-ss``'s
@@ -218,7 +218,7 @@ ramp (``ramp_frames=2000``) lowers the ``r_hat`` part by 0-10 dB more but costs 
 deg (the DAS weight learned during the ramp stays).  ``kernel_supports`` sends the mode to the numpy step.
 
 Frame rule (issue 16, fifth round; off by default: ``frame_q_db=None``).  What the oracle instrument
-(:mod:`benchmarks.perf.calibration_oracle`) showed to suffice is not a per-cell detector but a per-*frame*
+(:mod:`benchmarks.studies.calibration_oracle`) showed to suffice is not a per-cell detector but a per-*frame*
 one: learning only in frames where the talker is >= 10 dB below the noise over 125 Hz-4 kHz (no hold) puts
 every ``eb-robust-ss`` row at <= -36 dB on ``../shared/data`` with more SNR-I than the default.  The frame
 rule is that decision made blind: the forward/backward cardioid power ratio of the *uncalibrated* pair
@@ -233,9 +233,9 @@ threshold; ``frame_snr_db=(lo, hi)`` hands the averages back to the cardioid rul
 stream's estimated input SNR is below ``lo`` (:func:`_frame_snr_share`: the talker x noise terms are
 masked by the noise there, and a talker leaves most cells of its frames to it).  ``eb-robust`` then
 learns its DAS weight on the same weights (``mix_model="delayed"``, :mod:`enhancers.beam.subband_eb`).
-Measured (``python -m benchmarks.perf.calibration_jitter --frame --seeds 5 [--data-dir ../shared/data]
+Measured (``python -m benchmarks.studies.calibration_jitter --frame --seeds 5 [--data-dir ../shared/data]
 --baseline <default run>``, every noise and SNR, 2 December 2026, load ~2-4 on 2 cores; :data:`FRAME
-<benchmarks.perf.calibration_jitter.FRAME>`, ``frame_q_db=5``, hold 0.2 s, look ahead 0.24 s): on
+<benchmarks.studies.calibration_jitter.FRAME>`, ``frame_q_db=5``, hold 0.2 s, look ahead 0.24 s): on
 ``../shared/data`` ``eb-robust-ss``'s jitter at >= 15 dB worst -29.1 dB, median -39.8, 3 of 60 rows above
 -30 (all within 0.9 dB of it; the default -1.2 dB, COMBINED -12.4 with 16 rows), replay = Hagerman within 3
 dB on 100 %, SNR-I vs the default babble -0.4, factory -5.7, factory-hall +0.9, wind +0.9 dB; issue 12's
@@ -245,7 +245,7 @@ agreement 99 %, SNR-I babble -2.0, factory -9.2, hall +0.8, wind -0.1 dB.  What 
 whose SNR-I comes from the null of one plane wave that the default learns *during* speech at low input
 SNR (20-25 dB of SNR-I at 0 dB there), and whose synthetic recipe has impulsive hits that a DAS weight
 still at its prior in the first 0.24 s passes.  :data:`FRAME_LOWSNR
-<benchmarks.perf.calibration_jitter.FRAME_LOWSNR>` buys it back -- ``frame_snr_db=(6, 12)``, the DAS
+<benchmarks.studies.calibration_jitter.FRAME_LOWSNR>` buys it back -- ``frame_snr_db=(6, 12)``, the DAS
 weight's start-up stand-in (``mix_fast_cells=2000``), beta per bin frozen where the rule hears the talker
 (``beam_freeze="level"``) -- and lets some of the talker back in (``--frame-lowsnr``, same runs): shared data
 worst -22.9 dB, median -33.2, 15 of 60 rows above -30, agreement 99 %, SNR-I babble +0.3, factory +0.4, hall
@@ -265,7 +265,7 @@ syllables only.  ``frame_level_db`` (:func:`_frame_level_rule`) also stops at a 
 ``frame_low_hz``-4 kHz) is that far over its running minimum over ``level_floor_s``: it sees what the
 ratio cannot, and a false alarm (a machine's hit) only costs frames learned.  With beta learned late on
 the same weights (``beta_model="delayed"`` in :mod:`enhancers.beam.subband_eb`) and the rear rule
-(``cal_rear_db=10``): :data:`FRAME_DELAYED <benchmarks.perf.calibration_jitter.FRAME_DELAYED>`, measured
+(``cal_rear_db=10``): :data:`FRAME_DELAYED <benchmarks.studies.calibration_jitter.FRAME_DELAYED>`, measured
 below (``--frame-delayed``, 5 seeds, every noise and SNR, 2 December 2026, load ~2 on 2 cores): on
 ``../shared/data`` worst -15.0 dB, median -37.1, 7 of 60 rows above -30 (5 of them one utterance, seed 4,
 which leaves the rule 53 quiet frames in 6 s: a boundary frame that the talker x noise term flips then moves
@@ -293,7 +293,7 @@ rear rule's cells in a talker's frames, where its cardioid contrast certifies le
 ``cal_rear_low_db`` gives the rear rule a second, lower threshold where the input SNR is low (weight
 ``1 - kappa`` between the two), so issue 12's 240 deg source (contrast 9.5 dB) is learned at 5 dB input while
 15-25 dB rows keep ``cal_rear_db``.  Together: :data:`FRAME_SMOOTH
-<benchmarks.perf.calibration_jitter.FRAME_SMOOTH>` (``--frame-smooth``; ``frame_snr_db=(8, 14)``),
+<benchmarks.studies.calibration_jitter.FRAME_SMOOTH>` (``--frame-smooth``; ``frame_snr_db=(8, 14)``),
 measured (5 seeds, every noise and SNR, 2 December 2026, load ~2-3 on 2 cores): on ``../shared/data``
 worst -29.4 dB, median -38.0, 2 of 60 rows above -30 (both synthetic factory, within 0.6 dB of it),
 agreement 100 %, ``eb-robust-ss`` SNR-I vs the default babble +0.0, factory -0.5, hall +1.5, wind +0.6 dB,
@@ -330,7 +330,7 @@ Factory's SNR-I was lost at the stream start: FRAME_TAPER (below) at 0 dB input,
 scored from 2 s on beats the default (28.2 vs 27.4 dB), from 1 s on it is 2.4 dB behind and over the whole file
 3.8 dB (19.0 vs 22.8): the null is learned late, and the first second's noise dominates a nulled output; the DAS
 weight's stand-in unshrunk (``mix_fast_ramp_cells=0``, +0.7 dB at 0-10 dB input) and from the prior 0
-(``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER <benchmarks.perf.calibration_jitter.FRAME_TAPER>`
+(``mix_alpha0``) buy part back.  Together: :data:`FRAME_TAPER <benchmarks.studies.calibration_jitter.FRAME_TAPER>`
 (``--frame-taper``), measured as FRAME_SMOOTH was: on ``../shared/data`` worst -29.7 dB, median -38.5, 1 of 60
 rows above -30 (hall 15 dB seed 1, -29.71 dB -- first written here as seed 3, which is ``eb-robust``'s own row,
 -29.66 dB, that the decomposition lists; see the ninth round), agreement 100 %,
@@ -370,7 +370,7 @@ stand-in was a 6-frame average whose talker x noise cross term differed between 
 0.49 vs 0.56 for the whole file (the delayed weight learns 13 frames of this utterance and never takes over).
 ``frame_start_s=0.13`` (16 frames) outlasts the build-up: the stand-in then learns until the talker's onset at
 0.4 s (seed 1: -33.6 dB, SNR-I 1.17 -> 2.51 dB).  That is :data:`FRAME_SETTLED
-<benchmarks.perf.calibration_jitter.FRAME_SETTLED>` (``--frame-settled``; registered as ``eb-robust-blind`` and
+<benchmarks.studies.calibration_jitter.FRAME_SETTLED>` (``--frame-settled``; registered as ``eb-robust-blind`` and
 ``eb-robust-blind-ss``, :mod:`enhancers.beam.presets`), and it meets every part-3 target on both data sets (5 seeds,
 every noise and SNR; mismatch 2 seeds): ``../shared/data`` worst -30.7 dB, median -38.5, 0 of 60 rows above
 -30, agreement 100 %, SNR-I vs the default babble +0.20, factory +0.11, hall +1.49, wind -0.01 dB, mismatch

@@ -6,7 +6,7 @@ level-free decision per frame from the forward/backward cardioid ratio over 250 
 0.24 s before the talker with tapered edges -- on which the calibration, beta (one least-squares value per bin)
 and the DAS weight learn 0.24 s late; the rules' remaining edges graded; at low estimated input SNR the
 cardioid rules again (there the noise masks the talker).  It is ``calibration_jitter --frame-settled``
-(:data:`benchmarks.perf.calibration_jitter.FRAME_SETTLED`, where each piece and its measurement is named; the
+(:data:`benchmarks.studies.calibration_jitter.FRAME_SETTLED`, where each piece and its measurement is named; the
 module docstring of :mod:`enhancers.beam.mic_calibration` has the rounds).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
 stage: the gain averaged over neighbouring bins and frames, so that ss's own gain moves less with the noise.
 

@@ -36,7 +36,7 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
 Processing the calibrated pair with ``eb-subband`` as a separate stage would give the
 same operation up to one more frame of delay (a WOLA round trip between the stages).
 
-Measured (``python -m benchmarks.perf.robust_eb``: speech from 45 deg far field, babble from
+Measured (``python -m benchmarks.studies.robust_eb``: speech from 45 deg far field, babble from
 one far-field source at 135 / 240 deg or diffuse, or Corcos wind, 5 dB SNR, 20 s scored after
 8 s, mean of 3 seeds): SNR-I 27.8 / 26.6 / 3.4 / 8.6 dB with ideal mics and 27.5 / 26.2 /
 3.3 / 7.9 dB with the rear mic 1 dB / 5 deg off (plain ``eb``: 6.6 / 8.4 / 2.8 / -26.0 ->

@@ -69,7 +69,7 @@ degrees (inaudible, but a waveform comparison finds its best lag ~10 samples off
 ``eq_bound_beta`` (opt-in, issue 16): the noise-aware bound of the EQ is that of the fixed pattern
 ``cF - b cB`` instead of the adapted one.  The talker passes through the EQ, so an EQ that follows beta
 moves the talker's path with every speech x noise cross term beta learns from: on ``phone`` (shared
-data, 2 seeds, 15-25 dB, ``benchmarks.perf.calibration_jitter --decompose``) the jitter carried by
+data, 2 seeds, 15-25 dB, ``benchmarks.studies.calibration_jitter --decompose``) the jitter carried by
 beta and its EQ falls from a median of -19.3 dB (worst -14.8) to -28.8 dB (worst -17.5) with ``b = 0``,
 and ``eb-robust-ss``'s SNR-I per noise rises by 0.2-0.4 dB; ``b = 1`` (the strictest bound) costs
 2-3 dB in factory and the hall.

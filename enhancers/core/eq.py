@@ -24,7 +24,7 @@ equaliser decides how much each bin weighs in the broadband output.  The options
 Measured broadband amplification of spatially white noise re a white look-direction plane
 wave (ideal cardioid, 256-point bins at 16 kHz, the exact inverse capped at 25 dB):
 14.4 dB; with ``noise_gain_db`` = 12 / 9 / 6 dB: 6.0 / 4.6 / 3.2 dB (computed from the formulas
-above; the benchmark ``benchmarks/perf/robust_eb.py`` measures it on the running enhancer).
+above; the benchmark ``benchmarks/studies/robust_eb.py`` measures it on the running enhancer).
 """
 
 from __future__ import annotations

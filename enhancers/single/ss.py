@@ -34,7 +34,7 @@ bit the rule above)::
 
 ``G`` stays the mask applied to ``X`` and replayed (``<= gain_max``, no latency added).  Measured
 on ``phone`` (5 seeds, built-in data and the real recordings; load average 8-10 on 2 cores; details
-in ``benchmarks/perf/calibration_jitter.py``'s docstring): ``power_bins=2, gain_bins=2,
+in ``benchmarks/studies/calibration_jitter.py``'s docstring): ``power_bins=2, gain_bins=2,
 gain_smooth=0.55`` takes ss's own jitter behind a fixed front end (input SNR 15-25 dB) from worst
 -25.5 dB (babble) to -33.2 dB, every noise and data set <= -33 dB; ``eb-robust-ss``'s mean SNR-I
 changes by -0.55 to +0.38 dB per noise and its PESQ by +0.00 to +0.09.  Gains from the bin and

@@ -5,7 +5,7 @@ time matches a target.  What is measured is the decay speech hears, not the broa
 Schroeder T30 of the raw RIR: an image-source RIR is not high-passed and carries a
 DC/infrasonic build-up (mean/peak 0.5-12 % in the rooms measured) whose slow decay inflates the
 broadband T30, so a loop fitted on it left the 500 Hz-2 kHz octaves 17-20 % short of the target
-(mean over 4 other placements, 8 of 9 rooms; ``benchmarks/perf/room_acoustics_check.py``).  Here:
+(mean over 4 other placements, 8 of 9 rooms; ``benchmarks/studies/room_acoustics_check.py``).  Here:
 
 * flat absorption, scalar target: the mean of the 500 Hz, 1 kHz and 2 kHz octave T30s
   (:func:`scenesim.room.bands.speech_rt60`), averaged over the :data:`CALIBRATION_PLACEMENTS`;

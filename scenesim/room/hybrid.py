@@ -26,7 +26,7 @@ the axes (Weyl's surface and edge terms, :func:`weyl_weights`), whose directions
 or two pairs of walls.  Each octave of the tail's noise therefore decays as the Weyl-weighted
 mean of the octant, plane and axis averages of the same kernel (scaled by how much of the
 plane/axis excess the walls keep, :func:`_coherence`).  Specular rooms, hybrid/full per-octave
-T30 125 Hz .. 4 kHz, mean of seeds 0-3 (``benchmarks/perf/rooms_check.py --only hybrid``;
+T30 125 Hz .. 4 kHz, mean of seeds 0-3 (``benchmarks/studies/rooms_check.py --only hybrid``;
 the corridor in ``tests/test_hybrid_octaves.py``): 14 x 2.2 x 2.8 m
 corridor (alpha 0.1) 0.98 0.85 0.93 1.02 1.04 1.05, was 0.74 0.68 0.82 0.94 0.99 1.02; a
 6 x 5.5 x 3 m room (RT60 1 s) 1.00 1.15 1.03 0.98 1.15 1.02, was 0.79 1.03 0.97 0.94 1.13 1.01;
@@ -43,7 +43,7 @@ is added to the hybrid exactly as to the full model, from the room's own energy 
 band (air applied per band afterwards, as for the full model).  Its late energy dominates,
 so the hybrid's per-octave T30 (125 Hz-4 kHz) is within 0.7 % of the full model's in a
 corridor and in a banded room with air (``tests/test_hybrid_scattered.py``,
-``benchmarks/perf/rooms_check.py``), and the late field is diffuse, so the sinc coherence
+``benchmarks/studies/rooms_check.py``), and the late field is diffuse, so the sinc coherence
 below is the right one (tested at 250 Hz-4 kHz).  Where it is not: a purely specular room
 (``scattering=None``) that is not diffuse -- a corridor, one absorptive wall -- keeps
 direction-dependent decays the Gaussian tail only approximates (per octave above: 250 Hz

@@ -27,7 +27,7 @@ sidebands.  A source that does not move therefore gives ``x * h`` with ``h`` the
 room RIR, to rounding: early (static scatter, an LTI filter) + late (= RIR - the same early
 filter).  Cost: ~n_samples x n_early_images x n_mics compiled steps -- measured 17-33 s for
 2.8 s of signal in a 6 x 5 x 3 m room (80 ms mixing time, two mics) on the shared 2-core machine
-at load 15, against 2-7 s for the 50 ms blocks (``benchmarks/perf/rooms_check.py``); a shorter
+at load 15, against 2-7 s for the 50 ms blocks (``benchmarks/studies/rooms_check.py``); a shorter
 ``mixing_time_s`` trades the late reflections' motion for speed (cost ~ mixing_time^3).
 """
 

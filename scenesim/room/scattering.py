@@ -50,7 +50,7 @@ Default :data:`DEFAULT_SCATTERING` = 0.5 (every wall, every band), used by
 walls measure 0.05-0.1 (ISO 17497-1 random-incidence values), furniture, shelves, desks and
 people 0.4-0.8 at speech frequencies -- and an empty shoebox standing in for a furnished room
 must carry the furniture's diffusion on its walls.  Measured with the calibration
-(``benchmarks/perf/rooms_check.py``): at 0.3 an open office (absorptive ceiling) still
+(``benchmarks/studies/rooms_check.py``): at 0.3 an open office (absorptive ceiling) still
 decays in two slopes (EDT -24..-26 %, C50 +2.9..+4.2 dB off the diffuse field); at 0.5 the
 three unseen test rooms (corridor, one absorptive wall, open office) are within T30 -1.5..+4.4 %,
 EDT -5.8..+11 %, C50 -0.96..+0.70 dB.  ``ShoeBox(scattering=None)`` (the class default) is the

@@ -1,6 +1,6 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
-    python -m benchmarks.perf.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
+    python -m benchmarks.studies.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
         [--noises babble ...] [--blind | --direction]
         [--pooled | --combined | --frame | --frame-lowsnr | --frame-delayed | --frame-smooth | --frame-taper]
         [--set KEY=JSON ...]
@@ -46,7 +46,7 @@ were not tuned on, e.g. ``--first-seed 5``), for ``eb-robust`` and ``eb-robust-s
    :func:`benchmarks.metrics.evaluate.evaluate_enhancer` measures them (same alignment, same input SNR);
 3. mean replay SNR-I per noise, and with ``--baseline FILE`` (written by ``--save-baseline`` on
    another version of the code) the change (target: no more than 1 dB below);
-4. issue 12's mismatch loss (:func:`benchmarks.perf.robust_eb.snr_improvements`: 20 s, scored
+4. issue 12's mismatch loss (:func:`benchmarks.studies.robust_eb.snr_improvements`: 20 s, scored
    after 8 s, speech 45 deg, babble at 135 / 240 deg or diffuse, wind; ideal minus 1 dB / 5 deg
    rear mic) for ``eb-robust`` (target <= 2 dB at 135, 240 deg and diffuse).
 
@@ -88,9 +88,9 @@ import numpy as np
 
 from benchmarks.metrics import speech as M
 from benchmarks.metrics.distortion import speech_jitter_db
-from benchmarks.perf.robust_eb import snr_improvements
 from benchmarks.run.sweep import load_sweep
 from benchmarks.run.worker import render_group
+from benchmarks.studies.robust_eb import snr_improvements
 from enhancers.core.registry import make, with_geometry
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 

@@ -11,7 +11,7 @@ Two tables, printed for the current code:
    octave T30 (our estimator) of the *combined* RIR, mean over the 3 calibration placements and
    over 6 random other placements, error per octave.
 
-Run: ``python -m benchmarks.perf.room_acoustics_check`` (about 2 minutes on a loaded 2-core box).
+Run: ``python -m benchmarks.studies.room_acoustics_check`` (about 2 minutes on a loaded 2-core box).
 To get the "before" column of table 1, run the same function against an older checkout's
 ``ShoeBox(dims, rt60_s=t, rt60_method="calibrated")``.
 """

@@ -1,6 +1,6 @@
 """Issue 12 targets: null depth, mismatch robustness, self-noise amplification, real-time factor.
 
-    python -m benchmarks.perf.robust_eb [--seconds 20] [--settle-s 8] [--runs 5] [--skip-rtf]
+    python -m benchmarks.studies.robust_eb [--seconds 20] [--settle-s 8] [--runs 5] [--skip-rtf]
 
 Prints four markdown tables:
 

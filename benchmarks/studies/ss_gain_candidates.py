@@ -1,6 +1,6 @@
 """Which ``ss`` gain keeps the talker's path still in Hagerman's pair (issue 16 part 3): the candidate table.
 
-    python -m benchmarks.perf.ss_gain_candidates [--data-dir DIR] [--seeds N] [--snrs ...] [--noises ...]
+    python -m benchmarks.studies.ss_gain_candidates [--data-dir DIR] [--seeds N] [--snrs ...] [--noises ...]
         [--candidates NAME ...] [--no-pesq]
 
 On the ``phone`` preset's conditions, ``eb-robust``'s front end is run once per condition and front end,
@@ -10,7 +10,7 @@ its speech and noise parts replayed (``F s``, ``F n``), and each candidate gain 
 * the front end fixed (:data:`FIXED_FRONT_END`: the same operation on ``s + n`` and ``s - n``, so the
   ``s - n`` run's input is ``F s - F n``), input SNR >= 15 dB: ss's own ``speech_jitter_db``
   (:func:`benchmarks.metrics.distortion.speech_jitter_db`, latency-aligned as
-  :func:`benchmarks.perf.calibration_jitter.measure_condition` aligns it) -- worst and median per noise;
+  :func:`benchmarks.studies.calibration_jitter.measure_condition` aligns it) -- worst and median per noise;
 * ``eb-robust``'s defaults, every SNR: mean replay SNR-I and narrow-band PESQ (MOS-LQO of the aligned
   output, as :func:`benchmarks.metrics.evaluate.evaluate_enhancer` scores it), as changes from ``default``.
 
@@ -33,9 +33,9 @@ import numpy as np
 
 from benchmarks.metrics import speech as M
 from benchmarks.metrics.distortion import speech_jitter_db
-from benchmarks.perf.calibration_jitter import _snr
 from benchmarks.run.sweep import load_sweep
 from benchmarks.run.worker import render_group
+from benchmarks.studies.calibration_jitter import _snr
 from enhancers.core.registry import make, with_geometry
 from enhancers.single.ss import subtraction_gain
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS

@@ -1,6 +1,6 @@
 """DeepFilterNet3 on real speech in real babble: DNSMOS, PESQ and STOI before and after.
 
-    python -m benchmarks.perf.dfn3_real_speech --data-dir ../shared/data [--snr 5] [--noise cafe]
+    python -m benchmarks.studies.dfn3_real_speech --data-dir ../shared/data [--snr 5] [--noise cafe]
 
 The learned suppressor must be measured on real speech: the built-in artificial voice
 misleads it (as it misleads RNNoise).  Each CMU ARCTIC utterance in ``DATA/speech`` (at

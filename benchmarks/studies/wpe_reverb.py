@@ -1,6 +1,6 @@
 """Why WPE's C50 and SINR gains look small in the ``reverb`` rows: two ways to score one output.
 
-    python -m benchmarks.perf.wpe_reverb --data-dir ../shared/data [--rt60 0.6 0.9] [--seeds 3] [--seconds 8]
+    python -m benchmarks.studies.wpe_reverb --data-dir ../shared/data [--rt60 0.6 0.9] [--seeds 3] [--seconds 8]
 
 A scene like the ``reverb`` preset's (5 x 4 x 2.8 m, Sabine RT60 (not calibrated), talker 1 m at 45 deg,
 point noise 1.5 m at 200 deg at ``--snr`` dB, ideal sensors; CMU ARCTIC speech, seeded noise).  Each

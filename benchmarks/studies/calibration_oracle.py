@@ -1,14 +1,14 @@
 """Issue 16 part 3's bound: how talker-blind can ``eb-robust`` be if it learns only where the talker is absent?
 
-    python -m benchmarks.perf.calibration_oracle [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
+    python -m benchmarks.studies.calibration_oracle [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
         [--threshold-db -40 ...] [--scope all | calibration] [--set KEY=JSON ...] [--mismatch-seeds N]
 
 An *analysis instrument*, never a system: it gives ``eb-robust`` an ORACLE learning mask computed from
 the true speech and noise images -- a cell (frame, bin) may be learned from only where the talker's
 power over both mics is at least ``-threshold_db`` below the noise's (``rho = |S|^2 / |N|^2 <
-10^(threshold/10)``) -- and measures on ``phone`` what :mod:`benchmarks.perf.calibration_jitter`
+10^(threshold/10)``) -- and measures on ``phone`` what :mod:`benchmarks.studies.calibration_jitter`
 measures (jitter, replay SNR-I) plus the fraction of cells learned, and issue 12's mismatch loss in
-:mod:`benchmarks.perf.robust_eb`'s scene.  No enhancer in a sweep sees the mask.
+:mod:`benchmarks.studies.robust_eb`'s scene.  No enhancer in a sweep sees the mask.
 
 How: inside :func:`oracle_learning`, the calibration's freeze rules
 (:func:`enhancers.beam.mic_calibration._freeze`) return the oracle's cells (both its cardioid and its level
@@ -33,7 +33,7 @@ the cells in babble and factory where the -40 dB oracle finds 8-10 %.
 
 ``--frame``: the decision per *frame* (talker-to-noise power over 125 Hz-4 kHz, every bin alike), the one
 the frame rule of :mod:`enhancers.beam.mic_calibration` makes blind; ``--frame-setting``: ``eb-robust`` as
-:data:`benchmarks.perf.calibration_jitter.FRAME` around it (beta on its own gate, no hold).  Measured
+:data:`benchmarks.studies.calibration_jitter.FRAME` around it (beta on its own gate, no hold).  Measured
 (``--data-dir ../shared/data --frame --frame-setting --threshold-db -10 --seeds 2 --mismatch-seeds 1``, 2
 December 2026, 45 s): ``eb-robust-ss`` worst jitter -35.9 / -32.3 / -34.1 / -38.9 dB (babble / factory /
 factory-hall / wind), SNR-I 4.97 / 9.38 / 3.50 / 11.55 dB (the default on the same rows 4.16 / 9.56 / 2.18 /
@@ -52,9 +52,9 @@ import numpy as np
 
 import enhancers
 import enhancers.beam.mic_calibration as mc
-from benchmarks.perf import calibration_jitter as cj
-from benchmarks.perf import robust_eb as rb
 from benchmarks.run.sweep import load_sweep
+from benchmarks.studies import calibration_jitter as cj
+from benchmarks.studies import robust_eb as rb
 
 #: what the oracle switches off so that its mask is the only rule (and the one beta and the DAS weight use)
 ORACLE_PARAMS = {"freeze_level_db": 3.0, "level_hang_s": 0.0, "level_ahead_s": 0.0, "beam_freeze": "both",
@@ -127,7 +127,7 @@ def oracle_params(scope: str, overrides=None) -> dict:
 
 def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params: dict,
                       scope: str = "all", frame: bool = False, ss=None) -> list[dict]:
-    """:func:`benchmarks.perf.calibration_jitter.measure_condition`'s rows under the oracle (``scope``:
+    """:func:`benchmarks.studies.calibration_jitter.measure_condition`'s rows under the oracle (``scope``:
     ``"all"`` or ``"calibration"``), plus ``learned`` (the fraction of cells the mask leaves open)."""
     fb = enhancers.make("eb-robust", **params).filterbank
     rows = []
@@ -144,7 +144,7 @@ def phone_oracle_rows(data_dir, *, seeds: int, snrs, threshold_db: float, params
 
 def mismatch_losses(seed: int, threshold_db: float, params: dict, scope: str = "all",
                     frame: bool = False) -> dict[str, tuple[float, float]]:
-    """Issue 12's scene (:func:`benchmarks.perf.robust_eb.snr_improvements`' conditions) under the oracle:
+    """Issue 12's scene (:func:`benchmarks.studies.robust_eb.snr_improvements`' conditions) under the oracle:
     ``{noise: (ideal SNR-I, mismatched SNR-I)}`` (dB, scored after 8 s of 20 s)."""
     start, out = int(8.0 * rb.FS), {}
     for kind in ("135", "240", "diffuse", "wind"):

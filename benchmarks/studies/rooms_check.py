@@ -14,7 +14,7 @@ Sections (``--only`` picks some; each prints a table):
   with octave-band absorption and air (scattered), in specular corridor and near-cubic rooms,
   and the hybrid/full speed at RT60 1 s.
 
-Run: ``python -m benchmarks.perf.rooms_check [--only targets pra moving hybrid]``.  Timings are
+Run: ``python -m benchmarks.studies.rooms_check [--only targets pra moving hybrid]``.  Timings are
 wall clock on a shared machine (quote ``uptime``).
 """
 
