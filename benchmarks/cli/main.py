@@ -32,7 +32,7 @@ import sys  # noqa: E402
 from benchmarks.cli.console import cli_warnings  # noqa: E402
 from scenesim.errors import ScenesimError  # noqa: E402
 
-_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin")
+_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin", "tune")
 
 
 def _version() -> str:

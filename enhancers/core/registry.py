@@ -81,6 +81,9 @@ class EnhancerSpec:
         ``"scenesim"`` for this distribution's packages, else the entry's top-level module.
     from_entry_point : bool
         True for entries found through the ``scenesim.enhancers`` entry points.
+    provenance : dict or None
+        For a system built from a tuned parameter set: what it was tuned on (objective, split,
+        seeds, data fingerprint, trials); None otherwise.
     """
 
     name: str
@@ -91,6 +94,7 @@ class EnhancerSpec:
     from_entry_point: bool = False
     error: str | None = None  # set for a plugin that could not even be registered
     not_installed: str | None = None  # "pip install ..." for a peer whose optional package is absent
+    provenance: dict[str, Any] | None = None  # a tuned parameter set's origin (benchmarks.tune.register_tuned)
     _cls: type | None = field(default=None, repr=False)
 
     @property
