@@ -25,10 +25,12 @@ from data_recipes.noise_synthesis import (
     NOISE_RMS,
     SYNTHESIZABLE,
     SpeechPoolItem,
+    _artificial_babble_bank,
     synthesize_noise,
 )
+from data_recipes.splits import SPLITS, Portion, SplitPlan, plan_split, split_pool, split_seed
 from scenesim.errors import DataError, ParameterError
-from scenesim.validate import check_fs, check_int, check_positive
+from scenesim.validate import check_choice, check_fs, check_int, check_positive
 
 #: Environment variable naming the data directory.
 DATA_ENV = "SCENESIM_DATA"
@@ -64,7 +66,8 @@ class Clip:
 
 
 def open_data(
-    data_dir: str | os.PathLike | None = None, *, fs: int = 16000, require_speech: bool = False
+    data_dir: str | os.PathLike | None = None, *, fs: int = 16000, require_speech: bool = False,
+    split: str = "all",
 ) -> DataSource:
     """Open the data source: ``data_dir`` > ``$SCENESIM_DATA`` > built-in.
 
@@ -77,18 +80,23 @@ def open_data(
     require_speech : bool
         The directory was chosen explicitly (``--data-dir``): no usable speech in it is an
         error instead of a fallback to the built-in voice.
+    split : {"all", "dev", "test"}
+        The material drawn from (:mod:`data_recipes.splits`); ``"all"``: every file and seed.
 
     Raises
     ------
     DataError
         If the directory does not exist or holds no usable audio at all (or, with
         ``require_speech``, no usable speech).
+    ConfigError
+        If the directory's ``splits.toml`` is malformed (only read for ``dev`` / ``test``).
     """
     fs = check_fs(fs)
     if data_dir is None:
         env = os.environ.get(DATA_ENV, "").strip()
         data_dir = env or None
-    return DataSource(None if data_dir is None else Path(data_dir), fs=fs, require_speech=require_speech)
+    return DataSource(None if data_dir is None else Path(data_dir), fs=fs, require_speech=require_speech,
+                      split=split)
 
 
 class DataSource:
@@ -100,6 +108,9 @@ class DataSource:
         A data directory; ``None`` for the built-in recipes.
     fs : int
         Sampling rate (Hz) of every clip.
+    split : {"all", "dev", "test"}
+        Draw only this split's material (:mod:`data_recipes.splits`): its files or file
+        segments, and for built-in material its generator seeds (:func:`~data_recipes.splits.split_seed`).
 
     Notes
     -----
@@ -109,8 +120,10 @@ class DataSource:
     Instances pickle (for process pools / Dask): decoded audio is cached per instance.
     """
 
-    def __init__(self, root: Path | None, *, fs: int = 16000, require_speech: bool = False):
+    def __init__(self, root: Path | None, *, fs: int = 16000, require_speech: bool = False, split: str = "all"):
         self.fs = check_fs(fs)
+        self.split = check_choice("split", split, SPLITS)
+        self._plan: SplitPlan | None = None
         self.root = None if root is None else Path(root).expanduser().resolve()
         self._cache: dict[Path, np.ndarray] = {}
         self._scan: LocalScan | None = None
@@ -141,6 +154,7 @@ class DataSource:
                 )
             self._scan = scan
             self._kind = _recipe_of(self.root)
+            self._plan = plan_split(scan, self.split)
 
     # ------------------------------------------------------------------ description
     @property
@@ -181,29 +195,29 @@ class DataSource:
     def speech(self, duration_s: float, *, seed: int) -> Clip:
         """``duration_s`` seconds of clean speech, deterministic per ``seed``.
 
-        From a directory: utterances in a seeded random order, each scaled to the same
-        RMS, separated by 0.2-0.5 s pauses, looped as needed and cut to length.  Built in:
-        the artificial voice of a seed-chosen talker.  The clip's RMS is 0.05 (-26 dBFS).
+        From a directory: utterances (of this split) in a seeded random order, each scaled to
+        the same RMS, separated by 0.2-0.5 s pauses, looped as needed and cut to length.  Built
+        in: the artificial voice of a seed-chosen talker, drawn with the split's seed
+        (:func:`~data_recipes.splits.split_seed`).  The clip's RMS is 0.05 (-26 dBFS).
         """
         duration_s = check_positive("duration_s", duration_s)
-        seed = check_int("seed", seed, minimum=0)
+        seed = split_seed(check_int("seed", seed, minimum=0), self.split)
         n = max(1, int(round(duration_s * self.fs)))
         if self._scan is None or not self._scan.speech:
             x, talker = artificial_voice(duration_s, fs=self.fs, seed=seed)
             return Clip(x[:n], self.fs, "artificial-voice",
                         (f"artificial-voice:{talker.name}:seed={seed}",))
         rng = np.random.default_rng([seed, _tag("speech")])
-        entries = self._scan.speech
-        order = rng.permutation(len(entries))
+        portions = self._plan.speech
+        order = rng.permutation(len(portions))
         pieces, files, total, k = [], [], 0, 0
         while total < n:
-            entry = entries[int(order[k % len(order)])]
+            utt, label = self._load_portion(portions[int(order[k % len(order)])])
             k += 1
-            utt = self._load(entry)
             utt = utt * (OUTPUT_RMS / max(np.sqrt(np.mean(utt**2)), 1e-12))
             pause = np.zeros(int(rng.uniform(*_PAUSE_S) * self.fs))
             pieces += [utt, pause]
-            files.append(str(entry.path))
+            files.append(label)
             total += utt.size + pause.size
         x = np.concatenate(pieces)[:n]
         x = x * (OUTPUT_RMS / max(np.sqrt(np.mean(x**2)), 1e-12))
@@ -229,7 +243,7 @@ class DataSource:
             If the type is neither in the directory nor synthesizable.
         """
         duration_s = check_positive("duration_s", duration_s)
-        seed = check_int("seed", seed, minimum=0)
+        seed = split_seed(check_int("seed", seed, minimum=0), self.split)
         n_channels = check_int("n_channels", n_channels, minimum=1)
         asked, noise_type = noise_type, self.plays(noise_type)
         if noise_type is None:
@@ -248,26 +262,27 @@ class DataSource:
                 stacklevel=2,
             )
         pool = self._speech_pool() if noise_type == "babble" else None
+        if noise_type == "babble" and pool is None and self.split != "all":
+            pool = split_pool(_artificial_babble_bank(self.fs), self.split)  # the bank's split segment
         synth = synthesize_noise(noise_type, n, fs=self.fs, rng=rng, speech_pool=pool, n_channels=n_channels)
         signal = synth.signal[0] if n_channels == 1 else synth.signal
         files = (f"synthetic:{noise_type}:seed={seed}",) + synth.components
         return Clip(signal, self.fs, f"synthetic:{noise_type}", files)
 
     def _noise_from_files(self, noise_type: str, n: int, rng: np.random.Generator, n_channels: int) -> Clip:
-        entries = [e for e in self._scan.noise if e.noise_type == noise_type]
+        entries = self._plan.noise[noise_type]
         order = rng.permutation(len(entries))
         offset0 = rng.uniform()
         channels, files = [], []
         for ch in range(n_channels):
-            entry = entries[int(order[ch % len(entries)])]
-            x = self._load(entry)
+            x, label = self._load_portion(entries[int(order[ch % len(entries)])])
             # Spread channels that share a file evenly around its loop.
             share = ch // len(entries)
             n_share = -(-n_channels // len(entries))
             start = int(((offset0 + share / n_share) % 1.0) * x.size)
             y = _loop(x, start + n, self.fs)[start:start + n]
             channels.append(y * (NOISE_RMS / max(np.sqrt(np.mean(y**2)), 1e-12)))
-            files.append(f"{entry.path}@{start}")
+            files.append(f"{label}@{start}")
         signal = channels[0] if n_channels == 1 else np.stack(channels)
         return Clip(signal, self.fs, self.description, tuple(files))
 
@@ -279,14 +294,20 @@ class DataSource:
             self._cache[entry.path] = x
         return x
 
+    def _load_portion(self, portion: Portion) -> tuple[np.ndarray, str]:
+        """``(samples, label)`` of a whole file or of its split segment."""
+        return portion.cut(self._load(portion.entry))
+
     def _speech_pool(self) -> list[SpeechPoolItem] | None:
-        """The directory's speech as babble voices (talker = parsed name, else the file stem)."""
+        """The split's speech as babble voices (talker = parsed name, else the file stem)."""
         if self._scan is None or not self._scan.speech:
             return None
-        return [
-            SpeechPoolItem(talker=e.talker or e.path.stem, label=str(e.path), signal=self._load(e))
-            for e in self._scan.speech
-        ]
+        pool = []
+        for portion in self._plan.speech:
+            signal, label = self._load_portion(portion)
+            pool.append(SpeechPoolItem(talker=portion.entry.talker or portion.entry.path.stem, label=label,
+                                       signal=signal))
+        return pool
 
     def __getstate__(self):
         state = dict(self.__dict__)

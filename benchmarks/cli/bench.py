@@ -49,6 +49,8 @@ def add_parser(subparsers) -> None:
     run.add_argument("--limit", type=_positive_int, default=None, metavar="N", help="run only N conditions, spread over every swept axis (noise, SNR, seed, ...)")
     run.add_argument("--seeds", type=_positive_int, default=None, metavar="N", help="replace the sweep's seed list by 0..N-1 (more seeds: tighter intervals)")
     run.add_argument("--seed", type=_nonneg_int, default=None, metavar="S", help="offset the sweep's seeds by S")
+    run.add_argument("--split", choices=("dev", "test", "all"), default=None,
+                     help="draw speech and noise from this data split (default: the sweep's split key, else all)")
     run.add_argument("--retry-errors", action="store_true", help="recompute rows stored with status 'error'")
     run.add_argument("--no-report", action="store_true", help="do not write DIR/report at the end")
     run.add_argument(
@@ -108,11 +110,12 @@ def _run(args) -> int:
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     # offset seeds must stay SQLite integers: refused before any work, naming the option typed
     with options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit"}):
-        sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds)
+        sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds,
+                                               split=args.split)
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 
-        open_data(args.data_dir, require_speech=True)
+        open_data(args.data_dir, require_speech=True, split=sweep.split)
     out = prepare_out_dir("--out", args.out)
     slow = slow_rir_warning(conditions)
     if slow:
@@ -130,6 +133,7 @@ def _run(args) -> int:
             limit=args.limit,
             seed=args.seed,
             seeds=args.seeds,
+            split=args.split,
             retry_errors=args.retry_errors,
             report=None if args.no_report else write_store_report,
             new_version=args.new_version,

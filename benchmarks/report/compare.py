@@ -302,6 +302,7 @@ def compare_stores(
     Returns the Markdown text (also printed by the CLI) and the written paths.  ``out_dir``
     defaults to ``DIR_B/compare``; ``show_all`` keeps the lines where nothing changed.
     """
+    from benchmarks.report.splits import split_label
     from benchmarks.report.tables import markdown_table
     from benchmarks.store.sqlite import ResultStore
 
@@ -323,6 +324,8 @@ def compare_stores(
         f"# B − A: {dir_b} minus {dir_a}",
         "",
         f"Sweep parameters that differ (A -> B): {changes}.",
+        "",
+        f"Data of A: {split_label(rows_a)}; of B: {split_label(rows_b)}.",
         "",
         how,
         *(f"- {n}" for n in notes),

@@ -43,6 +43,7 @@ from benchmarks.report import thesis_repro as report_thesis_repro
 from benchmarks.report import tradeoff as report_tradeoff
 from benchmarks.report.html import slug, write_index
 from benchmarks.report.listening import ListenOptions
+from benchmarks.report.splits import captioned, header_line, split_label
 from benchmarks.report.tables import (
     CONDITION_KEYS,
     METRIC_FIELDS,
@@ -406,6 +407,7 @@ def _sources_section(rows: Sequence[dict]) -> list[str]:
 def _meta_lines(meta: Mapping[str, Any] | None, rows: Sequence[dict]) -> list[str]:
     n_ok = sum(r["status"] == "ok" for r in rows)
     lines = ["# scenesim benchmark report", ""]
+    lines.append(header_line(rows))
     for key, value in (meta or {}).items():
         lines.append(f"- **{key}**: {_short(value, 500)}")
     seeds = distinct(rows, "seed")
@@ -533,8 +535,9 @@ def write_report(
     fig_paths += figures.all_figures(ctx.generic, report_dir) if ctx.generic else []
     paths = [p for p in written if p.suffix != ".png"]
     headline, details = ([ln for lines, _ in group for ln in lines] for group in parts)
-    top = _overview_lines(overview)
-    rest = [*headline, *_figure_lines(fig_paths), *details, *_files_lines(paths)]
+    label = split_label(all_rows)
+    top = captioned(_overview_lines(overview, label), label)
+    rest = captioned([*headline, *_figure_lines(fig_paths, label), *details, *_files_lines(paths)], label)
     lines = [*_meta_lines(meta, all_rows), *contents_lines([*top, *rest]), *top, *rest]
     summary = report_dir / "summary.md"
     summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -624,18 +627,19 @@ def _failures_part(all_rows, report_dir: Path) -> tuple[list[str], list[Path]]:
     return _failures_section(failures(all_rows), len(all_rows)), paths
 
 
-def _overview_lines(overview: Sequence[Path]) -> list[str]:
+def _overview_lines(overview: Sequence[Path], label: str) -> list[str]:
     if not overview:
         return []
     return ["## Overview", "", "Each system per noise (one point per system, the seeds' interval as bars); "
             "the verdicts below say which differences are resolved.", "",
-            *(f"![{p.stem}]({p.name})\n" for p in overview)]  # fmt: skip
+            *(f"![{p.stem} ({label})]({p.name})\n" for p in overview)]  # fmt: skip
 
 
-def _figure_lines(fig_paths: Sequence[Path]) -> list[str]:
+def _figure_lines(fig_paths: Sequence[Path], label: str) -> list[str]:
+    """The figures, each captioned with its name and the rows' split(s)."""
     if not fig_paths:
         return []
-    return ["## Figures", "", *(f"![{p.stem}]({p.name})\n" for p in fig_paths)]
+    return ["## Figures", "", *(f"![{p.stem} ({label})]({p.name})\n" for p in fig_paths)]
 
 
 def _files_lines(paths: Sequence[Path]) -> list[str]:

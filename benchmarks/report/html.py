@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from benchmarks.report.listening import TARGET_LEVEL_DBFS, Listening, ListenOptions, build_listening
+from benchmarks.report.splits import split_label
 
 INDEX_NAME = "index.html"
 
@@ -99,7 +100,8 @@ def _image(match: re.Match) -> str:
     alt, src = match.group(1), match.group(2)
     if not _SAFE_SRC.match(src):
         return f"<p>{inline(match.group(0))}</p>"
-    return f'<figure><img src="{html.escape(src, quote=True)}" alt="{html.escape(alt, quote=True)}"></figure>'
+    alt = html.escape(alt, quote=True)
+    return f'<figure><img src="{html.escape(src, quote=True)}" alt="{alt}"><figcaption>{alt}</figcaption></figure>'
 
 
 def markdown_to_html(text: str) -> str:
@@ -223,6 +225,7 @@ def write_index(
         Which conditions get audio (default: :class:`ListenOptions`'s spread).
     """
     report_dir = Path(report_dir)
+    rows = list(rows)
     listening = build_listening(rows, report_dir, Path(store_dir), listen or ListenOptions())
     body = markdown_to_html(summary_md)
     page = "\n".join(
@@ -230,7 +233,7 @@ def write_index(
             "<!DOCTYPE html>",
             '<html lang="en"><head><meta charset="utf-8">',
             '<meta name="viewport" content="width=device-width, initial-scale=1">',
-            "<title>scenesim benchmark report</title>",
+            f"<title>scenesim benchmark report ({html.escape(split_label(rows))})</title>",
             f"<style>{_CSS}</style></head><body>",
             '<p><a href="#listen">Listen to examples</a> · <a href="summary.md">summary.md</a></p>',
             body,

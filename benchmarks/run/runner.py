@@ -126,6 +126,7 @@ def run_sweep(
     limit: int | None = None,
     seed: int | None = None,
     seeds: int | None = None,
+    split: str | None = None,
     retry_errors: bool = False,
     report: Callable[..., Iterable[Path]] | None = None,
     progress: bool = True,
@@ -148,6 +149,9 @@ def run_sweep(
         Offset the seeds axis (``seeds = [0]`` becomes ``[seed]``).
     seeds : int, optional
         Replace the sweep's seed list by ``0 .. seeds-1`` (before ``seed`` offsets it).
+    split : {"dev", "test", "all"}, optional
+        Draw from this data split instead of the sweep's own ``split`` (:meth:`Sweep.with_split`).
+        The run's ``options_json`` records the split and the seeds its conditions used.
     retry_errors : bool
         Recompute rows stored with ``status='error'`` (by default they count as done).
     report : callable, optional
@@ -171,9 +175,9 @@ def run_sweep(
         recomputed; rerunning after an interruption computes only what is missing.
     """
     check_choice("executor", executor, EXECUTORS)
-    sweep, conditions = _select_conditions(sweep, seed=seed, limit=limit, seeds=seeds)
+    sweep, conditions = _select_conditions(sweep, seed=seed, limit=limit, seeds=seeds, split=split)
     data_dir = _resolve_data_dir(data_dir)
-    _check_data(conditions, data_dir)
+    _check_data(conditions, data_dir, sweep.split)
 
     out_dir = Path(out_dir)
     t_start = time.perf_counter()
@@ -186,7 +190,8 @@ def run_sweep(
             sweep=sweep.name,
             source=sweep.source,
             config_toml=sweep.text,
-            options={"limit": limit, "seed": seed, "seeds": seeds, "retry_errors": retry_errors, "enhancers": sweep.enhancers},
+            options={"limit": limit, "seed": seed, "seeds": seeds, "retry_errors": retry_errors, "enhancers": sweep.enhancers,
+                     "split": sweep.split, "seeds_used": sorted({c.seed for c in conditions})},
             executor=executor,
             workers=workers or (None if scheduler else os.cpu_count()),
             scheduler=scheduler,
@@ -224,11 +229,14 @@ def run_sweep(
     )
 
 
-def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: int | None, seeds: int | None = None):
-    """``(sweep, conditions)``: the sweep loaded, its seed list replaced (``seeds``) and offset
-    (``seed``), ``limit`` of its conditions spread over its axes."""
+def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: int | None, seeds: int | None = None,
+                       split: str | None = None):
+    """``(sweep, conditions)``: the sweep loaded, its split replaced (``split``), its seed list
+    replaced (``seeds``) and offset (``seed``), ``limit`` of its conditions spread over its axes."""
     if not isinstance(sweep, Sweep):
         sweep = load_sweep(sweep)
+    if split is not None:
+        sweep = sweep.with_split(split)
     if seeds is not None:
         sweep = sweep.with_seeds(seeds)
     if seed is not None:
@@ -290,14 +298,15 @@ def _try_report(write, out_dir: Path, store: ResultStore) -> tuple[tuple[Path, .
         return (), _exc_text(exc)
 
 
-def _check_data(conditions: Sequence[Condition], data_dir: str | None) -> None:
-    """Fail before starting (not in every worker) on a bad data directory or unknown noise type."""
+def _check_data(conditions: Sequence[Condition], data_dir: str | None, split: str = "all") -> None:
+    """Fail before starting (not in every worker) on a bad data directory, ``splits.toml`` or
+    unknown noise type."""
     from data_recipes import open_data
 
     for fs in sorted({c.fs for c in conditions}):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # workers report fallbacks in the rows
-            ds = open_data(data_dir, fs=fs)
+            ds = open_data(data_dir, fs=fs, split=split)
         for noise in sorted(n for n in {c.noise for c in conditions} if ds.plays(n) is None):
             raise ConfigError(
                 f"noise type {noise!r} is neither in the data directory ({ds.description}) nor "

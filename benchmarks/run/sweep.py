@@ -24,6 +24,10 @@ A sweep is a TOML file (the presets ship in ``benchmarks/presets``)::
     [enhancer_params.eb]        # constructor overrides per enhancer name
     mu = 0.1
 
+A sweep draws its speech and noise from one split of the data, ``split = "dev" | "test" | "all"``
+in ``[sweep]`` or ``[fixed]`` (default ``"all"``: every file and seed; :mod:`data_recipes.splits`);
+a split is no axis: every row of a run has the one split, stored per row.
+
 Every condition parameter (see :data:`PARAMETERS`) may be an axis (a list in ``[axes]``) or
 fixed (a scalar in ``[fixed]``), never both; ``seeds`` is the axis spelling of ``seed``.
 A *condition* is one scene x noise x SNR x seed; a results row is one (condition, enhancer).
@@ -53,6 +57,7 @@ from typing import Any
 
 import numpy as np
 
+from data_recipes.splits import SPLITS
 from scenesim.errors import ConfigError, ParameterError, ScenesimError
 from scenesim.room.shoebox import RT60_METHODS
 from scenesim.scene.compose import NOISE_FIELDS, REFERENCES, SNR_MODES
@@ -312,7 +317,7 @@ PARAMETERS: dict[str, _Param] = {
 
 _AXIS_ALIASES = {"seeds": "seed"}  # axis spelling -> parameter
 _TOP_TABLES = ("sweep", "axes", "fixed", "rooms", "enhancer_params")
-_SWEEP_KEYS = ("name", "description")
+_SWEEP_KEYS = ("name", "description", "split")
 _ROOM_KEYS = ("dims_m", "pair_center_m", "axis_azimuth_deg")
 
 
@@ -376,6 +381,7 @@ class Condition:
     fd_window: str = "rect"
     azimuth_from: str = "axis"
     metrics: tuple[str, ...] = ()
+    split: str = "all"
 
     def canonical(self) -> dict[str, Any]:
         """Every parameter as plain JSON types (floats as floats, so 5 and 5.0 agree).
@@ -432,7 +438,8 @@ class Condition:
     def label(self) -> str:
         room = "free field" if self.room_dims_m is None else f"{self.room} RT60 {self.rt60_s:g} s"
         where = f"noise {self.noise_az_deg:g} deg" if self.noise_az_deg is not None else f"{self.noise_field} noise"
-        return f"{self.noise} {self.snr_db:g} dB, {room}, speech {self.speech_az_deg:g} deg, {where}, seed {self.seed}"
+        split = "" if self.split == "all" else f", split {self.split}"
+        return f"{self.noise} {self.snr_db:g} dB, {room}, speech {self.speech_az_deg:g} deg, {where}, seed {self.seed}{split}"
 
 
 _LATE_DEFAULTS: dict[str, Any] = {
@@ -455,6 +462,7 @@ _LATE_DEFAULTS: dict[str, Any] = {
     "fd_window": "rect",
     "azimuth_from": "axis",
     "metrics": (),
+    "split": "all",
 }
 """Condition keys added after the first release, with the value that leaves them out of the id."""
 
@@ -481,6 +489,9 @@ class Sweep:
     enhancer_params : mapping name -> dict
     axes : mapping parameter -> tuple of values (one value for fixed parameters)
     rooms : mapping name -> Room
+    split : {"all", "dev", "test"}
+        The data split every condition draws from (:mod:`data_recipes.splits`); part of each
+        condition's id (except ``"all"``), not of the sweep's version.
     """
 
     name: str
@@ -492,6 +503,7 @@ class Sweep:
     axes: Mapping[str, tuple]
     rooms: Mapping[str, Room] = field(default_factory=dict)
     seed_offset: int = 0
+    split: str = "all"
 
     def conditions(self) -> list[Condition]:
         """All conditions in deterministic order (Cartesian product, SNR innermost).
@@ -505,6 +517,7 @@ class Sweep:
         for combo in itertools.product(*(self.axes[n] for n in names)):
             values = dict(zip(names, combo))
             values["seed"] += self.seed_offset
+            values["split"] = self.split
             cond = _make_condition(values, self.rooms)
             if cond.id not in seen:
                 seen.add(cond.id)
@@ -520,6 +533,16 @@ class Sweep:
         if seed > limit:
             raise ParameterError("seed", seed, f"an integer in [0, {limit}] (the sweep's seeds go up to {top})")
         return dataclasses.replace(self, seed_offset=self.seed_offset + seed)
+
+    def with_split(self, split: str) -> Sweep:
+        """The same sweep drawing from data split ``split`` (``bench run --split``).
+
+        >>> load_sweep("smoke").with_split("dev").conditions()[0].split
+        'dev'
+        """
+        if not isinstance(split, str) or split not in SPLITS:
+            raise ParameterError("split", split, "one of " + ", ".join(repr(s) for s in SPLITS))
+        return dataclasses.replace(self, split=split)
 
     def with_seeds(self, n: int) -> Sweep:
         """The same sweep with its seed list replaced by ``0 .. n-1`` (``bench run --seeds N``).
@@ -702,8 +725,11 @@ class _Parser:
             if not isinstance(data[key], dict):
                 raise self.error((), key, f"expected a table [{key}]")
 
+        split = self._split(data)
         meta = data.get("sweep", {})
         for key in meta:
+            if key == "split":
+                continue
             if key not in _SWEEP_KEYS:
                 raise self.error(("sweep",), key, f"unknown key; expected one of {', '.join(_SWEEP_KEYS)}")
             if not isinstance(meta[key], str):
@@ -712,7 +738,8 @@ class _Parser:
         description = meta.get("description", "")
 
         rooms = self._rooms(data.get("rooms", {}))
-        axes, enhancers = self._axes(data.get("axes", {}), data.get("fixed", {}))
+        fixed = {k: v for k, v in data.get("fixed", {}).items() if k != "split"}
+        axes, enhancers = self._axes(data.get("axes", {}), fixed)
         for name_ in axes["room"]:
             if name_ is not None and name_ not in rooms:
                 table = ("axes",) if "room" in data.get("axes", {}) else ("fixed",)
@@ -733,10 +760,27 @@ class _Parser:
             enhancer_params=params,
             axes=axes,
             rooms=rooms,
+            split=split,
         )
         self._check_room_rt60(sweep, data)
         self._check_geometry(sweep, data)
         return sweep
+
+    def _split(self, data: dict) -> str:
+        """The sweep's data split, from ``[sweep]`` or ``[fixed]`` (not both; never an axis)."""
+        allowed = "one of " + ", ".join(repr(s) for s in SPLITS)
+        if "split" in data.get("axes", {}):
+            raise self.error(("axes",), "split", f"a sweep draws from one split: give split = {allowed} "
+                                                  "in [sweep] or [fixed]")
+        places = [t for t in ("sweep", "fixed") if "split" in data.get(t, {})]
+        if len(places) == 2:
+            raise self.error(("fixed",), "split", "is also given in [sweep]; give it once")
+        if not places:
+            return "all"
+        value = data[places[0]]["split"]
+        if not isinstance(value, str) or value not in SPLITS:
+            raise self.error((places[0],), "split", f"expected {allowed}, got {value!r}")
+        return value
 
     def _syntax_error(self, exc: Exception) -> ConfigError:
         line = getattr(exc, "lineno", None)

@@ -45,6 +45,7 @@ _CONDITION_COLUMNS = (
     "far_field",
     "spacing_m",
     "wind_speed_mps",
+    "split",
 )
 
 
@@ -86,17 +87,17 @@ class UnitTask:
 
 
 
-_DATASETS: dict[tuple[str | None, int], Any] = {}
+_DATASETS: dict[tuple[str | None, int, str], Any] = {}
 _IMAGES: OrderedDict[tuple, Any] = OrderedDict()
 _IMAGES_MAX = 2  # a worker interleaves at most a couple of geometry groups
 
 
-def _dataset(data_dir: str | None, fs: int):
-    key = (data_dir, fs)
+def _dataset(data_dir: str | None, fs: int, split: str = "all"):
+    key = (data_dir, fs, split)
     if key not in _DATASETS:
         from data_recipes import open_data
 
-        _DATASETS[key] = open_data(data_dir, fs=fs)
+        _DATASETS[key] = open_data(data_dir, fs=fs, split=split)
     return _DATASETS[key]
 
 
@@ -188,19 +189,30 @@ def render_group(cond: Condition, data_dir: str | None):
         return _IMAGES[key]
     from scenesim.scene.compose import render_images
 
-    ds = _dataset(data_dir, cond.fs)
+    ds = _dataset(data_dir, cond.fs, cond.split)
     speech = ds.speech(cond.duration_s, seed=cond.seed)
     noise = ds.noise(cond.noise, cond.duration_s, seed=cond.seed, n_channels=_noise_channels(cond.noise_field))
     images = render_images(build_scene(cond), _mono(speech.signal), [_squeeze(noise.signal)])
     value = (images, str(speech.source), str(noise.source))
     _PARTS[key] = _speech_parts(cond, images, _mono(speech.signal))
+    _FILES[key] = {"speech_files": list(speech.files), "noise_files": list(noise.files)}
     _IMAGES[key] = value
     while len(_IMAGES) > _IMAGES_MAX:
-        _PARTS.pop(_IMAGES.popitem(last=False)[0], None)
+        old = _IMAGES.popitem(last=False)[0]
+        _PARTS.pop(old, None)
+        _FILES.pop(old, None)
     return value
 
 
 _PARTS: dict[tuple, Any] = {}  # (speech parts, acoustics columns) beside each cached group
+_FILES: dict[tuple, dict[str, list[str]]] = {}  # the files (or seeds) each cached group's clips came from
+
+
+def group_files(cond: Condition, data_dir: str | None) -> dict[str, list[str]]:
+    """``{"speech_files": [...], "noise_files": [...]}``: what a condition's clips were cut from
+    (files with ``[a:b]`` segments and ``@offset``, or generator seeds; :attr:`data_recipes.source.Clip.files`)."""
+    render_group(cond, data_dir)
+    return _FILES[(data_dir, cond.group_id)]
 
 
 def _speech_parts(cond: Condition, images, speech):
@@ -273,7 +285,8 @@ def run_condition(task: ConditionTask) -> list[dict[str, Any]]:
             if parts is not None and parts.reverberant and cond.reference != "direct":
                 # Target = direct + early (the sweep's early window) for every intrusive metric.
                 rendered = dataclasses.replace(rendered, reference=parts.target[:1].copy())
-            base.update(speech_source=speech_source, noise_source=noise_source, **acoustics)
+            base.update(speech_source=speech_source, noise_source=noise_source, **acoustics,
+                        **group_files(cond, task.data_dir))
             base["render_s"] = time.perf_counter() - t0
             inputs = input_metrics(rendered, speech_parts=parts, reference=cond.reference)
             inputs = {**inputs, **_optional_input_metrics(cond, rendered)}

@@ -118,6 +118,10 @@ EXTRA_COLUMNS: tuple[tuple[str, str], ...] = (
     ("drr_win_rir_db", "REAL"),
     ("drr_win_rir_target_db", "REAL"),
     ("sweep_version", "TEXT"),
+    # the data split a row drew from (data_recipes.splits) and the files its clips were cut from
+    ("split", "TEXT"),
+    ("speech_files", "TEXT"),
+    ("noise_files", "TEXT"),
     ("group_id", "TEXT"),
     ("condition_json", "TEXT"),
     ("enhancer_spec", "TEXT"),
@@ -242,6 +246,8 @@ class ResultStore:
             for name, typ in EXTRA_COLUMNS:
                 if name not in have:
                     self._db.execute(f"ALTER TABLE results ADD COLUMN {name} {typ}")
+            if "split" not in have:  # rows from before splits drew from every file and seed
+                self._db.execute("UPDATE results SET split = 'all'")
 
     @property
     def journal_mode(self) -> str:
