@@ -428,6 +428,8 @@ _BUILTINS = (
     ("eb-robust-ss", "enhancers.beam.robust_eb:EbRobustSs"),
     ("eb-robust-blind", "enhancers.beam.robust_eb:TalkerBlindRobustEb"),
     ("eb-robust-blind-ss", "enhancers.beam.robust_eb:EbRobustBlindSs"),
+    ("eb-spp", "enhancers.beam.spp_eb:SppElkoBeamformer"),
+    ("eb-spp-ss", "enhancers.beam.spp_eb:EbSppSs"),
 )
 for _name, _target in _BUILTINS:
     register(_name, _target)

@@ -1,0 +1,252 @@
+"""Differential beamformer on the noise statistics (``"eb-spp"``, ``"eb-spp-ss"``).
+
+The robust EB's three adaptive quantities -- the rear mic's response, beta and the delay-and-sum
+weight -- each answer one question about the noise: its cross-spectrum between the mics. Here all
+three are read from one noise covariance per bin, ``Phi_vv[l, k]`` (2 x 2), which
+:mod:`enhancers.beam.noise_stats` averages with the weight ``1 - p`` of the speech presence
+probability ``p`` (Souden et al. 2010's multichannel SPP by default). A cell the talker dominates
+(``p -> 1``) leaves the average where it was, so no separate freeze rule decides when to learn.
+
+Per frame ``l`` and bin ``k`` (``e = exp(-j w_k T)``, ``T`` the inter-mic delay in samples), from
+``Phi = Phi_vv[l - 1, k]`` (the frames *before* ``l``: a frame never steers its own weights):
+
+1. **Calibration.** ``r_hat`` from ``(S11, S22, S21) = (Phi_00, Phi_11, Phi_10)`` by
+   :func:`enhancers.beam.mic_calibration.estimate_from_averages`: ``|r| = sqrt(S22 / S11)`` (equal
+   power at both mics in a far-field or diffuse noise field), ``angle(r)`` the phase of ``S21`` with
+   the propagation slope removed (the diffuse-field coherence ``sinc(2 f d / c)`` is real), both
+   averaged over ``~smooth_frac k`` neighbouring bins and clipped to ``+-max_gain_db`` /
+   ``+-max_phase_deg``; where the coherence is below ``min_coherence`` the phase is held.
+   The rear spectrum is divided by ``r_hat``; ``Phi`` is transformed the same way,
+   ``Phi_c = D^-1 Phi D^-H``, ``D = diag(1, r_hat)``.
+2. **Beta.** The forward and backward cardioids are ``cF = a^T x``, ``cB = b^T x`` with
+   ``a = (1, -e)``, ``b = (-e, 1)``; the noise output power ``E|cF - beta cB|^2`` is least for
+   ``beta = Re(a^T Phi_c b*) / (b^T Phi_c b*)`` -- the fixed point of Elko's NLMS (algorithms.md
+   section 5) on the noise alone -- clipped to ``[0, 1]`` (the null in the rear half plane).
+3. **Equaliser.** :func:`enhancers.core.eq.look_eq_gain` of a fixed cardioid (``beta = 0``) with the
+   white-noise-gain bound ``eq_noise_gain_db = 9`` dB, an 80 Hz high-pass and the 90-degree phase
+   correction: the look-direction talker's path never follows beta.
+4. **DAS weight.** ``Y = Y_d - alpha (Y_d - Y_s)`` between the differential output ``Y_d`` and a
+   delay-and-sum ``Y_s`` with the same look response; ``alpha`` minimises the noise output power
+   under ``Phi_c`` (its closed form as for beta), clipped to ``[0, 1]``: ~1 where the noise is
+   incoherent between the mics (wind, self-noise), which no differential pattern reduces.
+
+The output is ``Y = w^T X`` with ``w (2,)`` per frame and bin: a linear operation once ``w`` is
+recorded, so ``Result.replay`` is exact. Before any noise is seen the weights are those of the
+priors ``beta = 0`` (cardioid) and ``alpha = 1/2`` (the minimax choice for an unknown optimum in
+``[0, 1]``) and ``r_hat = 1``.
+
+Parameters (``SppElkoBeamformer.Params``; the geometry and filter-bank fields of
+:class:`enhancers.core.stft_stage.StftParams` besides): ``spp`` ("multi" or "single"),
+``tau_noise_s`` (0.5 s), ``prior_absence`` (0.5), ``fit_band_hz`` ((500, 4000) Hz),
+``smooth_frac`` (0.06), ``max_gain_db`` (6), ``max_phase_deg`` (30), ``min_coherence`` (0.3):
+eight, with the sources of the first three in :mod:`enhancers.beam.noise_stats`.
+
+References
+----------
+G. W. Elko and A.-T. Nguyen Pong, "A simple adaptive first-order differential microphone", IEEE
+WASPAA 1995. M. Souden, J. Chen, J. Benesty, S. Affes, "Gaussian model-based multichannel speech
+presence probability", IEEE TASLP 18(5), 2010. T. Gerkmann, R. C. Hendriks, "Unbiased MMSE-based
+noise power estimation with low complexity and low tracking delay", IEEE TASLP 20(4), 2012.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from enhancers.beam.mic_calibration import _check_band, estimate_from_averages
+from enhancers.beam.noise_stats import SPP_METHODS, NoiseStatsConfig, noise_stats_init, noise_stats_step
+from enhancers.core.chain import Chain
+from enhancers.core.eq import look_eq_gain
+from enhancers.core.stft_stage import TINY, StftEnhancer, StftParams, bin_omega
+from scenesim.errors import ParameterError
+from scenesim.validate import check_choice, check_range
+
+__all__ = ["EbSppSs", "SppElkoBeamformer", "closed_form_weights"]
+
+_BETA0, _ALPHA0 = 0.0, 0.5  # the priors before any noise is seen (module docstring)
+_REG = 1e-12  # relative regulariser of the two least-squares ratios (re the noise power in the bin)
+
+
+def _quad(u: np.ndarray, Phi: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``u^T Phi conj(v)`` per cell: ``E[(u^T x)(v^T x)*]`` for ``E[x x^H] = Phi``; shapes ``(..., 2)``,
+    ``(..., 2, 2)``, ``(..., 2)`` -> ``(...)``."""
+    return np.einsum("...i,...ij,...j->...", u, Phi, np.conj(v))
+
+
+def _ls_weight(num: np.ndarray, den: np.ndarray, scale: np.ndarray, prior: float) -> np.ndarray:
+    """``clip((num + prior r) / (den + r), 0, 1)``, ``r = _REG scale + TINY``: the least-squares weight,
+    the prior where the bin holds no noise power yet."""
+    r = _REG * scale + TINY
+    return np.clip((num + prior * r) / (den + r), 0.0, 1.0)
+
+
+def closed_form_weights(Phi: np.ndarray, e: np.ndarray, G: np.ndarray, look: np.ndarray, *,
+                        das_mix: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Beta, DAS weight and output weights ``w`` of the calibrated pair under the noise covariance ``Phi``.
+
+    Parameters
+    ----------
+    Phi : ndarray, complex, shape ``(..., K, 2, 2)``
+        Noise covariance of the calibrated spectra ``x = (X1, X2 / r_hat)``.
+    e : ndarray, complex, shape ``(K,)``
+        ``exp(-j w T)`` per bin.
+    G : ndarray, complex, shape ``(K,)``
+        Look-direction equaliser of the differential output.
+    look : ndarray, shape ``(K,)``
+        The differential path's look response ``|G 2 sin(w T)|`` (the DAS path gets the same).
+    das_mix : bool
+        Mix with the delay-and-sum (else ``alpha = 0``).
+
+    Returns
+    -------
+    beta, alpha : ndarray, shape ``(..., K)``
+    w : ndarray, complex, shape ``(..., K, 2)``
+        ``Y = w[..., 0] X1 + w[..., 1] X2c``.
+
+    Examples
+    --------
+    A point noise source from the rear endfire (180 deg) reaches the rear mic one delay earlier; its
+    covariance is ``d d^H`` with ``d = (e, 1)``, which the backward cardioid ``cB`` cancels, so
+    ``beta = 0`` (a cardioid) nulls it:
+
+    >>> import numpy as np
+    >>> e = np.exp(-1j * np.array([0.3, 0.6]))
+    >>> d = np.stack([e, np.ones(2)], axis=-1)
+    >>> Phi = d[..., :, None] * np.conj(d[..., None, :])
+    >>> beta, alpha, w = closed_form_weights(Phi, e, np.ones(2), np.ones(2), das_mix=False)
+    >>> np.round(beta, 6).tolist(), np.allclose(np.einsum("ki,ki->k", w, d), 0)
+    ([0.0, 0.0], True)
+    """
+    a = np.stack([np.ones_like(e), -e], axis=-1)  # cF = a^T x
+    b = np.stack([-e, np.ones_like(e)], axis=-1)  # cB = b^T x
+    scale = np.abs(Phi[..., 0, 0]) + np.abs(Phi[..., 1, 1])
+    beta = _ls_weight(_quad(a, Phi, b).real, _quad(b, Phi, b).real, scale, _BETA0)
+    d = G[:, None] * (a - beta[..., None] * b)  # Y_d = d^T x
+    if not das_mix:
+        return beta, np.zeros_like(beta), d
+    s = (0.5 * look)[:, None] * np.stack([e, np.ones_like(e)], axis=-1)  # Y_s = s^T x (unit look gain x look)
+    diff = d - s
+    alpha = _ls_weight(_quad(d, Phi, diff).real, _quad(diff, Phi, diff).real, scale, _ALPHA0)
+    return beta, alpha, d - alpha[..., None] * diff
+
+
+class SppElkoBeamformer(StftEnhancer):
+    """Calibrated sub-band Elko beamformer whose calibration, beta and DAS weight are read from an
+    SPP-weighted noise covariance (see module docstring).
+
+    Examples
+    --------
+    >>> import numpy as np, enhancers
+    >>> e = enhancers.make("eb-spp")
+    >>> res = e.process(np.random.default_rng(0).standard_normal((2, 8000)), 16000)
+    >>> res.output.shape, res.trace["beta"].shape
+    ((1, 8000), (62, 129))
+    """
+
+    name: ClassVar[str] = "eb-spp"
+    version: ClassVar[str] = "1"
+    summary: ClassVar[str] = "EB with calibration, beta and DAS weight from an SPP-weighted noise covariance"
+
+    @dataclass(frozen=True)
+    class Params(StftParams):
+        spp: str = "multi"
+        tau_noise_s: float = 0.5
+        prior_absence: float = 0.5
+        fit_band_hz: tuple[float, float] = (500.0, 4000.0)
+        smooth_frac: float = 0.06
+        max_gain_db: float = 6.0
+        max_phase_deg: float = 30.0
+        min_coherence: float = 0.3
+
+        def __post_init__(self):
+            self._check_stft()
+            check_choice("spp", self.spp, SPP_METHODS)
+            check_range("tau_noise_s", self.tau_noise_s, 0.0, 600.0, lo_open=True)
+            check_range("prior_absence", self.prior_absence, 0.0, 1.0, lo_open=True, hi_open=True)
+            _check_band("fit_band_hz", self.fit_band_hz)
+            check_range("smooth_frac", self.smooth_frac, 0.0, 1.0)
+            check_range("max_gain_db", self.max_gain_db, 0.0, 40.0)
+            check_range("max_phase_deg", self.max_phase_deg, 0.0, 180.0)
+            check_range("min_coherence", self.min_coherence, 0.0, 1.0)
+
+        def stats_config(self, fs: int) -> NoiseStatsConfig:
+            """The noise-statistics stage's constants at rate ``fs``."""
+            return NoiseStatsConfig(hop_s=int(self.hop) / fs, spp=self.spp, tau_noise_s=float(self.tau_noise_s),
+                                    prior_absence=float(self.prior_absence))
+
+    # fixed parts of the method (module docstring): not parameters
+    EQ = {"max_gain_db": 25.0, "noise_gain_db": 9.0, "highpass_hz": 80.0}
+
+    def _constants(self, fs: int):
+        """``(e, G, look, band, max_slope)`` at rate ``fs`` (cached: params are frozen)."""
+        cache = self.__dict__.setdefault("_constants_at", {})
+        if fs not in cache:
+            cache[fs] = self._compute_constants(fs)
+        return cache[fs]
+
+    def _compute_constants(self, fs: int):
+        p = self.params
+        n = int(p.frame_len)
+        omega = bin_omega(n)
+        T = self.delay_samples(fs)
+        e = np.exp(-1j * omega * T)
+        g = look_eq_gain(np.zeros(omega.shape), omega=omega, delay_samples=T, freqs_hz=omega / (2 * np.pi) * fs,
+                         **self.EQ)
+        G = -1j * g  # the look response 2j sin(wT) e^{-jwT} X1: -j undoes the j
+        look = np.abs(G) * np.abs(2.0 * np.sin(omega * T))
+        f_hz = omega / (2 * np.pi) * fs
+        lo, hi = (float(v) for v in p.fit_band_hz)
+        k = np.flatnonzero((f_hz >= lo) & (f_hz <= min(hi, fs / 2)))
+        if k.size < 3:
+            raise ParameterError("fit_band_hz", p.fit_band_hz, f"a band holding >= 3 bins at fs={fs}")
+        max_slope = 2.0 * math.pi * T / n  # the propagation phase slope of an endfire source, rad per bin
+        return e, G, look, slice(int(k[0]), int(k[-1]) + 1), max_slope
+
+    def _algo_init(self, fs, n_bins):
+        return (noise_stats_init(n_bins), np.zeros(n_bins))  # the stage's state, the held phase
+
+    def _frames(self, X, algo, fs):
+        p = self.params
+        stats_state, held = algo
+        e, G, look, band, max_slope = self._constants(fs)
+        prev = stats_state.r_vv / np.maximum(stats_state.n_vv, TINY)[:, None, None]
+        stats, stats_state = noise_stats_step(X, stats_state, p.stats_config(fs))
+        Phi = np.concatenate([prev[None], stats.vv[:-1]]) if X.shape[1] else stats.vv  # frames before each
+        avg = np.stack([Phi[..., 0, 0], Phi[..., 1, 1], Phi[..., 1, 0]], axis=1)  # (F, 3, K)
+        r_hat = estimate_from_averages(avg, band=band, max_slope=max_slope, smooth_bins=1,
+                                       smooth_frac=float(p.smooth_frac), max_gain_db=float(p.max_gain_db),
+                                       max_phase_deg=float(p.max_phase_deg), min_coherence=float(p.min_coherence),
+                                       prev_phase=held)
+        inv = 1.0 / r_hat
+        Phi_c = Phi.copy()
+        Phi_c[..., 0, 1] *= np.conj(inv)
+        Phi_c[..., 1, 0] *= inv
+        Phi_c[..., 1, 1] *= np.abs(inv) ** 2
+        beta, alpha, w = closed_form_weights(Phi_c, e, G, look)
+        w_raw = np.stack([w[..., 0], w[..., 1] * inv], axis=-1)  # on the uncalibrated spectra
+        Y = w_raw[..., 0] * X[0] + w_raw[..., 1] * X[1]
+        held = np.angle(r_hat[-1]) if X.shape[1] else held
+        record = {"w": w_raw, "beta": beta, "alpha": alpha, "r_hat": r_hat, "spp": stats.p}
+        return Y[None], (stats_state, held), record
+
+    def _apply(self, record, X, fs):
+        w = record["w"]
+        return (w[..., 0] * X[0] + w[..., 1] * X[1])[None]
+
+    def _trace(self, record):
+        r = record["r_hat"]
+        return {"beta": record["beta"], "alpha": record["alpha"], "spp": record["spp"],
+                "rear_gain_db": 20.0 * np.log10(np.abs(r) + TINY), "rear_phase_deg": np.degrees(np.angle(r))}
+
+
+class EbSppSs(Chain):
+    """``eb-spp`` followed by ``ss`` (the thesis' cascade with this front end)."""
+
+    name = "eb-spp-ss"
+    version = "1"
+    summary = "eb-spp followed by spectral subtraction (Martin 1994)"
+    stages = (("eb", "eb-spp"), ("ss", "ss"))
