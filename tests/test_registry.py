@@ -156,3 +156,12 @@ def test_with_geometry():
     assert (das.params.spacing_m, das.params.c_mps) == (0.05, 340.0)
     geo = with_geometry(SumGeo(), spacing_m=0.03)
     assert geo.params.spacing_m == 0.03 and geo.params.c_mps == 343.0
+
+
+@pytest.mark.parametrize("name", ["eb-robust", "eb-robust-ss"])
+def test_todays_robust_systems_stay_reachable_under_their_versioned_names(name):
+    # contract.md: the held-out targets compare new systems against eb-robust@1 / eb-robust-ss@1, so those
+    # names must resolve to the classes and defaults of version 1 even once a later version is registered.
+    frozen = make(f"{name}@1")
+    assert (frozen.name, frozen.version) == (name, "1")
+    assert frozen.params == type(frozen).Params()  # version 1's own defaults
