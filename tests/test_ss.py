@@ -102,6 +102,21 @@ def test_subtraction_rule_matches_formula():
     np.testing.assert_allclose(g_floor, 0.02 / 0.5, rtol=1e-14)
 
 
+def test_power_subtraction_matches_berouti_power_form_and_keeps_the_floor():
+    """Oracle: Berouti's power rule written out, |Y|^2 = max(|X|^2 - osub Pn, subf^2 Pn), for one bin
+    above the floor (osub at 10 dB SNR = 2.5) and one below it; the enhancer takes it as subtract="power"."""
+    X, Pn = np.array([3.0]), np.array([1.0])
+    kw = dict(osub0=4, osub_slope=0.15, osub_min=1, osub_max=4.75, subf=0.02, power=True)
+    np.testing.assert_allclose(subtraction_gain(X, 10 * Pn, Pn, **kw), np.sqrt(9 - 2.5) / 3, rtol=1e-14)
+    np.testing.assert_allclose(subtraction_gain(np.array([0.5]), 10 * Pn, Pn, **kw), 0.02 / 0.5, rtol=1e-14)
+    x = np.random.default_rng(1).standard_normal((1, FS))
+    mag, power = SpectralSubtraction().process(x, FS), SpectralSubtraction(subtract="power").process(x, FS)
+    assert np.all(power.trace["gain"] >= mag.trace["gain"] - 1e-12)  # power subtraction removes less
+    assert np.mean(power.trace["gain"]) > np.mean(mag.trace["gain"]) + 0.01
+    with pytest.raises(ParameterError, match="subtract"):
+        SpectralSubtraction(subtract="cubic")
+
+
 def test_thesis_preset_and_json_round_trip():
     p = SpectralSubtraction.Params.thesis()
     assert (p.n_sub * p.sub_len, p.omin) == (200, 0.99)

@@ -36,6 +36,9 @@ CASES = [
     ("ss", {"power_bins": 2, "gain_bins": 3, "gain_smooth": 0.6}, "ss_block"),  # cross-term averaging (issue 16)
     ("ss", {"power_bins": 128, "gain_bins": 1, "gain_smooth": 0.3, "snr_def": "instant"}, "ss_block"),  # widest
     ("ss", {"power_bins": 1, "gain_bins": 120, "gain_smooth": 0.7, "frame_len": 240, "hop": 80}, "ss_ms1994_frames"),
+    ("ss", {"subtract": "power"}, "ss_block"),  # power subtraction (issue 30)
+    ("ss", {"subtract": "power", "osub_slope": 0.0, "osub_min": 2.0, "osub0": 2.0, "subf": 0.05,
+            "frame_len": 240, "hop": 80}, "ss_ms1994_frames"),
     ("ss-ms2001", {}, "ms2001_frames"),
     ("ss-ms2001", {"td": 0.3, "nu": 3, "snr_def": "instant"}, "ms2001_frames"),
     ("mmse-lsa", {}, "ms2001_frames"),

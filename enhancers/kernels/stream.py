@@ -227,8 +227,12 @@ def _berouti_gain(s, ref, pn, gp):  # pragma: no cover - compiled
     x_mag = math.sqrt(s)
     snr_db = 10.0 * math.log10((ref if ref > TINY else TINY) / (pn if pn > TINY else TINY))
     osub = _clip(osub0 - slope * snr_db, osub_min, osub_max)
-    root_pn = math.sqrt(pn if pn > 0.0 else 0.0)
-    y_mag = max(x_mag - math.sqrt(osub) * root_pn, subf * root_pn)
+    pn_pos = pn if pn > 0.0 else 0.0
+    if gp[11] != 0.0:  # power subtraction
+        y_mag = math.sqrt(max(x_mag * x_mag - osub * pn_pos, subf * subf * pn_pos))
+    else:
+        root_pn = math.sqrt(pn_pos)
+        y_mag = max(x_mag - math.sqrt(osub) * root_pn, subf * root_pn)
     return y_mag / max(max(x_mag, y_mag / gain_max), TINY)
 
 
@@ -263,7 +267,8 @@ def ss_ms1994_frames(X, P, actmin, ring, sc, g_prev, omin, gp, smoothed):  # pra
     sc : [count, has_P] frames in the open sub-window; 0 before the first frame (updated)
     g_prev : (K,) the last frame's gain (``gain_smooth``'s recursion; read when has_P, updated)
     omin : (K,) bias compensation
-    gp : [alpha, sub_len, osub0, osub_slope, osub_min, osub_max, subf, gain_max, power_bins, gain_bins, gain_smooth]
+    gp : [alpha, sub_len, osub0, osub_slope, osub_min, osub_max, subf, gain_max, power_bins, gain_bins, gain_smooth,
+          power] (power: 1 for power subtraction, 0 for magnitude)
     smoothed : SNR from the smoothed power P (else from |X|^2)
 
     ``X`` is overwritten with ``G X`` (the frames to synthesise), the arithmetic of
@@ -481,7 +486,7 @@ def warm_up() -> None:
                        np.zeros(9), pp, BLOCK_NLMS, True, np.full(4, np.inf), 5)
     hist = np.zeros((2, 31))
     fir_pair_block(extend(hist, x), hist, np.ones((2, 32)))
-    gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0, 0.0, 0.0, 0.0])
+    gp = np.array([0.9, 4.0, 4.0, 0.15, 1.0, 4.75, 0.02, 1.0, 0.0, 0.0, 0.0, 0.0])
     ss_ms1994_frames(np.fft.rfft(x, axis=-1), np.zeros(21), np.full(21, np.inf), np.full((3, 21), np.inf),
                      np.zeros(2), np.zeros(21), np.ones(21), gp, True)
     from enhancers.core.filterbank import FilterBank

@@ -6,8 +6,13 @@ On the WOLA filter bank of :mod:`enhancers.core.filterbank` (16 ms Hamming, 50 %
     Pn       = noise PSD from Martin 1994 (``ss``) or Martin 2001 (``ss-ms2001``)
     SNR      = 10 log10(P / Pn)        P: smoothed power ("smoothed", default) or |X|^2 ("instant")
     osub     = clip(osub0 - osub_slope * SNR, osub_min, osub_max)     (Berouti 1979)
-    |Y|      = max(|X| - sqrt(osub Pn), subf sqrt(Pn))
+    |Y|      = max(|X| - sqrt(osub Pn), subf sqrt(Pn))                 (subtract="magnitude", default)
+    |Y|^2    = max(|X|^2 - osub Pn, subf^2 Pn)                           (subtract="power", Berouti's)
     G        = min(|Y| / |X|, gain_max)  (floored),   Y = G X   -> WOLA synthesis
+
+Both subtractions floor ``|Y|`` at the same level, ``subf sqrt(Pn)``, so ``subf`` means the same in
+either; they differ above it (power subtraction removes less: ``|X| - sqrt(osub Pn) <= sqrt(|X|^2 -
+osub Pn)``).  A fixed over-subtraction factor is ``osub_slope = 0`` with ``osub_min = osub0``.
 
 ``gain_max`` defaults to 1: where ``|X|`` is below the floor ``subf sqrt(Pn)`` the literal
 rule would *amplify* the bin (by up to 1000x in practice).  Those are the bins where speech
@@ -87,18 +92,28 @@ _TINY = 1e-300
 
 def subtraction_gain(
     X_mag: np.ndarray, P: np.ndarray, Pn: np.ndarray, *, osub0: float, osub_slope: float,
-    osub_min: float, osub_max: float, subf: float, gain_max: float = 1.0,
+    osub_min: float, osub_max: float, subf: float, gain_max: float = 1.0, power: bool = False,
 ) -> np.ndarray:
-    """Berouti magnitude subtraction gain ``G = |Y| / |X|`` (same shape as ``X_mag``).
+    """Berouti subtraction gain ``G = |Y| / |X|`` (same shape as ``X_mag``).
 
     ``SNR = 10 log10(P / Pn)``; ``osub = clip(osub0 - osub_slope SNR, osub_min, osub_max)``;
-    ``|Y| = max(|X| - sqrt(osub Pn), subf sqrt(Pn))``; ``G = min(|Y| / |X|, gain_max)``.
-    Divisions are floored, so silence (``X = P = Pn = 0``) gives ``G = 0``.
+    magnitude: ``|Y| = max(|X| - sqrt(osub Pn), subf sqrt(Pn))``; ``power=True``:
+    ``|Y| = sqrt(max(|X|^2 - osub Pn, subf^2 Pn))`` (Berouti 1979's power form); ``G = min(|Y| / |X|,
+    gain_max)``.  Divisions are floored, so silence (``X = P = Pn = 0``) gives ``G = 0``.
+
+    >>> one = np.array([1.0])
+    >>> kw = dict(osub0=1.0, osub_slope=0.0, osub_min=1.0, osub_max=1.0, subf=0.0)
+    >>> float(subtraction_gain(2 * one, one, one, **kw)[0]), float(subtraction_gain(2 * one, one, one, power=True, **kw)[0] ** 2)
+    (0.5, 0.75)
     """
     snr_db = 10.0 * np.log10(np.maximum(P, _TINY) / np.maximum(Pn, _TINY))
     osub = np.clip(osub0 - osub_slope * snr_db, osub_min, osub_max)
-    root_pn = np.sqrt(np.maximum(Pn, 0.0))
-    y_mag = np.maximum(X_mag - np.sqrt(osub) * root_pn, subf * root_pn)
+    pn = np.maximum(Pn, 0.0)
+    if power:
+        y_mag = np.sqrt(np.maximum(X_mag * X_mag - osub * pn, subf * subf * pn))
+    else:
+        root_pn = np.sqrt(pn)
+        y_mag = np.maximum(X_mag - np.sqrt(osub) * root_pn, subf * root_pn)
     return y_mag / np.maximum(np.maximum(X_mag, y_mag / gain_max), _TINY)
 
 
@@ -147,7 +162,8 @@ class _SubtractionParams(Params):
     """Fields shared by both spectral-subtraction variants (filter bank and Berouti rule).
 
     ``power_bins`` / ``gain_bins`` (int, ``0 .. frame_len // 2``) and ``gain_smooth`` (``[0, 1)``): the
-    averaged gain of the module docstring (all 0: the plain Berouti rule).
+    averaged gain of the module docstring (all 0: the plain Berouti rule).  ``subtract``:
+    ``"magnitude"`` (default) or ``"power"`` subtraction (the module docstring's two rules).
     """
 
     frame_len: int = 256
@@ -163,6 +179,7 @@ class _SubtractionParams(Params):
     power_bins: int = 0
     gain_bins: int = 0
     gain_smooth: float = 0.0
+    subtract: str = "magnitude"
 
     def _check_common(self):
         n = check_int("frame_len", self.frame_len, minimum=16)
@@ -180,6 +197,7 @@ class _SubtractionParams(Params):
         check_int("power_bins", self.power_bins, minimum=0, maximum=n // 2)
         check_int("gain_bins", self.gain_bins, minimum=0, maximum=n // 2)
         check_range("gain_smooth", self.gain_smooth, 0.0, 1.0, hi_open=True)
+        check_choice("subtract", self.subtract, ("magnitude", "power"))
 
 
 @dataclass
@@ -265,7 +283,7 @@ class _SubtractionBase(Enhancer):
         ref = P if p.snr_def == "smoothed" else S
         G = subtraction_gain(X_mag, ref, Pn, osub0=p.osub0, osub_slope=p.osub_slope,
                              osub_min=p.osub_min, osub_max=p.osub_max, subf=p.subf,
-                             gain_max=p.gain_max)
+                             gain_max=p.gain_max, power=p.subtract == "power")
         G = smooth_gain(average_over_bins(G, p.gain_bins), state.g_prev, p.gain_smooth)
         out, fbs = fb.synthesis_step(G[None] * X, block.shape[-1], fbs)
         new = _SSState(fb=fbs, tracker=tr, fs=state.fs, n_frames=state.n_frames + X.shape[1],
@@ -418,7 +436,7 @@ def _ss_kernel_args(params: SpectralSubtraction.Params):
     omin = np.array(np.broadcast_to(omin, (n_bins,)), dtype=float)  # writable: numba types read-only apart
     gp = np.array([params.alpha, params.sub_len, params.osub0, params.osub_slope, params.osub_min,
                    params.osub_max, params.subf, params.gain_max, params.power_bins, params.gain_bins,
-                   params.gain_smooth], dtype=float)
+                   params.gain_smooth, params.subtract == "power"], dtype=float)
     return omin, gp, params.snr_def == "smoothed"
 
 
