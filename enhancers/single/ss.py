@@ -103,7 +103,9 @@ def subtraction_gain(
 
     >>> one = np.array([1.0])
     >>> kw = dict(osub0=1.0, osub_slope=0.0, osub_min=1.0, osub_max=1.0, subf=0.0)
-    >>> float(subtraction_gain(2 * one, one, one, **kw)[0]), float(subtraction_gain(2 * one, one, one, power=True, **kw)[0] ** 2)
+    >>> g_mag = subtraction_gain(2 * one, one, one, **kw)[0]  # (2 - 1) / 2
+    >>> g_pow = subtraction_gain(2 * one, one, one, power=True, **kw)[0]  # sqrt(4 - 1) / 2
+    >>> round(float(g_mag), 12), round(float(g_pow) ** 2, 12)
     (0.5, 0.75)
     """
     snr_db = 10.0 * np.log10(np.maximum(P, _TINY) / np.maximum(Pn, _TINY))
