@@ -127,3 +127,24 @@ def test_bench_seed_offset_past_sqlite_integers_names_the_option_typed(tmp_path,
     assert main(["bench", "run", str(path), "--out", str(tmp_path / "o"), "--seed", str(2**63 - 1)]) == 2
     err = capsys.readouterr().err
     assert f"--seed={2**63 - 1}" in err and f"[0, {2**63 - 2}]" in err and not (tmp_path / "o").exists(), err
+
+
+def test_a_sweep_larger_than_the_bound_is_refused_before_expansion(tmp_path):
+    from benchmarks.run.sweep import MAX_CONDITIONS, load_sweep
+    from scenesim.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"seeds.*at most 250,000 for this sweep \(4 conditions per seed"):
+        load_sweep("smoke").with_seeds(10**8)
+    load_sweep("smoke").with_seeds(MAX_CONDITIONS // 4)  # the bound itself is allowed (not expanded here)
+    text = ('[axes]\nenhancers = ["eb"]\nnoise = ["babble"]\nsnr_db = ' + repr([i / 100 for i in range(1001)])
+            + "\nseeds = " + repr(list(range(1000))) + "\n")
+    with pytest.raises(ConfigError, match=r"1,001,000 conditions; at most 1,000,000"):
+        parse_sweep(text)
+
+
+def test_bench_run_with_a_huge_seed_count_fails_at_once_with_one_line(tmp_path, capsys):
+    from benchmarks.cli.main import main
+
+    assert main(["bench", "run", "smoke", "--seeds", "100000000", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--seeds=100000000" in err and "\n" not in err and not (tmp_path / "o").exists()

@@ -82,6 +82,9 @@ PRESETS = ("thesis", "thesis-text", "thesis-fit", "thesis-repro", "phone", "mism
 """Names of the sweeps shipped in ``benchmarks/presets`` (contract.md: fixed names)."""
 
 ID_VERSION = 1
+
+MAX_CONDITIONS = 1_000_000
+"""The most conditions one sweep may expand to (about a CPU-year at a second each): larger is a typo."""
 """Bumped if the canonical parameter set changes meaning (changes every condition id)."""
 
 MIN_WALL_DISTANCE_M = 0.1  # scenesim.room.shoebox.ShoeBox's default: sources and mics keep off the walls
@@ -552,6 +555,10 @@ class Sweep:
         """
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise ParameterError("seeds", n, "an integer >= 1")
+        per_seed = math.prod(len(v) for k, v in self.axes.items() if k != "seed")
+        if n > MAX_CONDITIONS // max(per_seed, 1):  # checked before any list is built: a typo must not hang
+            raise ParameterError("seeds", n, f"at most {MAX_CONDITIONS // max(per_seed, 1):,} for this sweep "
+                                             f"({per_seed} conditions per seed, {MAX_CONDITIONS:,} in one sweep)")
         return dataclasses.replace(self, axes={**self.axes, "seed": tuple(range(n))})
 
     @property
@@ -740,6 +747,10 @@ class _Parser:
         rooms = self._rooms(data.get("rooms", {}))
         fixed = {k: v for k, v in data.get("fixed", {}).items() if k != "split"}
         axes, enhancers = self._axes(data.get("axes", {}), fixed)
+        n_conditions = math.prod(len(v) for v in axes.values())
+        if n_conditions > MAX_CONDITIONS:  # counted from the axes' lengths: nothing is expanded yet
+            raise self.error(("axes",), None, f"the axes expand to {n_conditions:,} conditions; at most "
+                                              f"{MAX_CONDITIONS:,} in one sweep (split it into several)")
         for name_ in axes["room"]:
             if name_ is not None and name_ not in rooms:
                 table = ("axes",) if "room" in data.get("axes", {}) else ("fixed",)
