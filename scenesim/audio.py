@@ -22,7 +22,7 @@ import soundfile as sf
 
 from scenesim.errors import DataError, ParameterError
 from scenesim.files import chmod_as_umask
-from scenesim.validate import check_choice, check_fs
+from scenesim.validate import PHYSICAL_RANGES, check_choice, check_fs
 
 SUBTYPES = ("FLOAT", "DOUBLE", "PCM_16", "PCM_24", "PCM_32")
 
@@ -44,6 +44,70 @@ def resample(x, fs_from: int, fs_to: int) -> np.ndarray:
     from scipy import signal as sps  # lazy: scipy.signal costs ~1.5 s to import (scipy 1.17)
 
     return sps.resample_poly(arr, fs_to // g, fs_from // g, axis=-1)
+
+
+def _riff_rate(path: Path) -> int | None:
+    """The rate field of a RIFF/RF64 WAV's ``fmt`` chunk (libsndfile will not open rate 0)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return None
+    if head[:4] not in (b"RIFF", b"RF64") or head[8:12] != b"WAVE":
+        return None
+    i = head.find(b"fmt ", 12)
+    return int.from_bytes(head[i + 12:i + 16], "little") if 0 < i <= len(head) - 16 else None
+
+
+def audio_rate(path) -> int:
+    """The sample rate (Hz) an audio file's header states, unchecked (a WAV's 0 Hz included).
+
+    Raises
+    ------
+    DataError
+        The file is missing or libsndfile cannot read its header (the message names it).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"no such file: {path}" if not path.exists() else f"{path} is not a file")
+    try:
+        return int(sf.info(str(path)).samplerate)
+    except (sf.LibsndfileError, RuntimeError, OSError) as exc:
+        rate = _riff_rate(path)
+        if rate is None:
+            raise DataError(f"cannot read audio file {path}: {exc}") from exc
+        return rate
+
+
+def check_rate(path, rate: int) -> int:
+    """``rate`` if it is within the range of ``--fs``, else a DataError naming the file and its rate.
+
+    The range is :data:`scenesim.validate.PHYSICAL_RANGES` ``["fs"]`` (8000-192000 Hz).
+
+    >>> check_rate("a.wav", 1)
+    Traceback (most recent call last):
+    scenesim.errors.DataError: audio file a.wav says its sample rate is 1 Hz: expected a rate \
+in [8000, 192000] Hz (the range of --fs); fix or resample the file
+    """
+    lo, hi = PHYSICAL_RANGES["fs"][:2]
+    if not lo <= rate <= hi:
+        raise DataError(
+            f"audio file {path} says its sample rate is {rate} Hz: expected a rate in [{lo}, {hi}] Hz "
+            "(the range of --fs); fix or resample the file"
+        )
+    return rate
+
+
+def check_audio_rate(path) -> int:
+    """The header's sample rate of ``path`` (Hz), held to the range of ``--fs`` before any work.
+
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "fine.wav")
+    >>> _ = sf.write(path, np.zeros(100), 16000)
+    >>> check_audio_rate(path)
+    16000
+    """
+    return check_rate(path, audio_rate(path))
 
 
 def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
@@ -106,7 +170,8 @@ def _warn_if_truncated(path: Path, shape: tuple[int, int]) -> None:
         )
 
 
-def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = False) -> Path:
+def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = False,
+                comment: str | None = None) -> Path:
     """Write ``x`` ((n,) or (n_channels, n_samples)) to ``path`` atomically.
 
     Parameters
@@ -121,6 +186,8 @@ def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = F
         Sample format.
     normalize : bool
         Integer PCM only: scale to a peak of 0.99 when ``|x| > 1`` (otherwise that raises).
+    comment : str, optional
+        Text for the file's ``comment`` field (WAV ``ICMT``, FLAC Vorbis comment).
 
     Returns
     -------
@@ -157,7 +224,10 @@ def write_audio(path, x, fs: int, *, subtype: str = "FLOAT", normalize: bool = F
     os.close(fd)
     try:
         # The temporary name has no audio extension, so the format is given explicitly.
-        sf.write(tmp, arr.T, fs, subtype=subtype, format=fmt)
+        with sf.SoundFile(tmp, "w", fs, arr.shape[0], subtype=subtype, format=fmt) as f:
+            if comment:
+                f.comment = comment
+            f.write(arr.T)
         chmod_as_umask(tmp)  # mkstemp made it 0600; the user's umask decides
         os.replace(tmp, path)
     except BaseException:

@@ -60,6 +60,22 @@ class MetricError(ScenesimError):
     """A metric could not be computed for this signal (e.g. PESQ found no utterance)."""
 
 
+class ExtraNotInstalled(ScenesimError, ImportError):
+    """An optional extra a requested feature needs is not installed; the message is the install line.
+
+    >>> str(ExtraNotInstalled("dnsmos", "DNSMOS"))
+    'DNSMOS needs the optional [dnsmos] extra: pip install "scenesim[dnsmos]"'
+    """
+
+    def __init__(self, extra: str, feature: str):
+        self.extra = extra
+        self.feature = feature
+        super().__init__(f'{feature} needs the optional [{extra}] extra: pip install "scenesim[{extra}]"')
+
+    def __reduce__(self):
+        return (type(self), (self.extra, self.feature))
+
+
 def _short_repr(value: Any) -> str:
     """``repr`` that keeps arrays and long values readable inside one error line."""
     shape = getattr(value, "shape", None)

@@ -25,6 +25,13 @@ def _read(path):
     return data.T, fs
 
 
+def _assert_latency_removed(y, delayed, latency):
+    """Oracle: the API's (delayed) output advanced by the declared latency, for a causal enhancer;
+    same length as the input; float32 storage bounds the difference (1e-6)."""
+    assert latency > 0 and y.shape == delayed.shape
+    np.testing.assert_allclose(y[:, : y.shape[1] - latency], delayed[:, latency:], rtol=0, atol=1e-6)
+
+
 def test_passthrough_writes_reference_mic(tmp_path, stereo_wav, capsys):
     path, x = stereo_wav
     out = tmp_path / "out.wav"
@@ -39,13 +46,14 @@ def test_passthrough_writes_reference_mic(tmp_path, stereo_wav, capsys):
 def test_das_with_params_and_spacing_matches_api(tmp_path, stereo_wav, capsys):
     path, x = stereo_wav
     out = tmp_path / "das.wav"
-    argv = ["enhance", str(path), str(out), "-e", "das", "--param", "fir_taps=16", "--spacing-m", "0.03"]
+    argv = ["enhance", str(path), str(out), "-e", "das", "--param", "fir_taps=16", "--spacing-m", "0.03",
+            "--keep-latency"]
     assert main(argv) == 0
     expected = make("das", fir_taps=16, spacing_m=0.03).process(x, FS).output
     y, _ = _read(out)
-    # Oracle: the Python API on the same samples; float32 storage bounds the difference.
+    # Oracle: the Python API on the same samples (delay kept); float32 storage bounds the difference.
     np.testing.assert_allclose(y, expected, rtol=0, atol=1e-7)
-    assert "latency: 8 samples (0.500 ms)" in capsys.readouterr().out
+    assert "latency: 8 samples (0.500 ms), kept in the output" in capsys.readouterr().out
 
 
 def test_eb_ss_chain_stage_param(tmp_path, stereo_wav, capsys):
@@ -54,9 +62,9 @@ def test_eb_ss_chain_stage_param(tmp_path, stereo_wav, capsys):
     trace = tmp_path / "trace.npz"
     argv = ["enhance", str(path), str(out), "-e", "eb-ss", "-p", "ss.alpha=0.9", "--trace", str(trace)]
     assert main(argv) == 0
-    expected = make("eb-ss", ss={"alpha": 0.9}).process(x, FS).output
+    api = make("eb-ss", ss={"alpha": 0.9})
     y, _ = _read(out)
-    np.testing.assert_allclose(y, expected, rtol=0, atol=1e-6)
+    _assert_latency_removed(y, api.process(x, FS).output, api.tags.latency_samples)
     assert any(key.startswith("eb__") for key in np.load(trace).files)
     assert "default spacing_m" in capsys.readouterr().err
 
@@ -66,7 +74,7 @@ def test_one_channel_enhancer_uses_reference_mic(tmp_path, stereo_wav, capsys):
     out = tmp_path / "ss.wav"
     assert main(["enhance", str(path), str(out), "-e", "ss"]) == 0
     y, _ = _read(out)
-    np.testing.assert_allclose(y, make("ss").process(x[0:1], FS).output, rtol=0, atol=1e-6)
+    _assert_latency_removed(y, make("ss").process(x[0:1], FS).output, make("ss").tags.latency_samples)
     assert "using channel 0" in capsys.readouterr().err
 
 

@@ -119,22 +119,33 @@ def test_cli_without_reference_prints_csv(tmp_path, rng, capsys):
 
 
 @pytest.mark.parametrize(
-    "make_ref, args, message",
+    "make_ref, message",
     [
-        (lambda c: (c, 8000), [], "is 16000 Hz but its reference"),
-        (lambda c: (np.stack([c, c]), FS), [], "pass --channel I"),
-        (lambda c: (c[:-160], FS), [], "pass --trim"),
+        (lambda c: (c, 8000), "is 16000 Hz but its reference"),
+        (lambda c: (c[:-160], FS), "pass --trim"),
     ],
-    ids=["rate", "channels", "length"],
+    ids=["rate", "length"],
 )
-def test_cli_mismatch_is_one_line_with_the_fix(tmp_path, rng, capsys, make_ref, args, message):
+def test_cli_mismatched_pair_fails_its_row_with_the_fix(tmp_path, rng, capsys, make_ref, message):
+    """A pair that cannot be scored is a failed row with the reason; the exit status is 1."""
     clean = _speechlike(rng)
     deg = _write(tmp_path / "deg.wav", clean + 0.01)
     ref_x, ref_fs = make_ref(clean)
     ref = _write(tmp_path / "ref.wav", ref_x, ref_fs)
-    assert main(["score", str(deg), "--ref", str(ref), "--no-dnsmos", *args]) == 2
+    assert main(["score", str(deg), "--ref", str(ref), "--no-dnsmos", "--no-align"]) == 1
+    captured = capsys.readouterr()
+    (row,) = _csv(captured.out)
+    assert row["status"] == "failed" and message in row["error"] and row["stoi"] == ""
+    assert "1 failed" in captured.err
+
+
+def test_cli_multichannel_without_channel_is_one_line_with_the_fix(tmp_path, rng, capsys):
+    clean = _speechlike(rng)
+    deg = _write(tmp_path / "deg.wav", clean + 0.01)
+    ref = _write(tmp_path / "ref.wav", np.stack([clean, clean]))
+    assert main(["score", str(deg), "--ref", str(ref), "--no-dnsmos"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("scenesim: error:") and message in err and "\n" not in err
+    assert err.startswith("scenesim: error:") and "pass --channel I" in err and "\n" not in err
 
 
 def test_trim_and_channel_options_fix_the_mismatches(tmp_path, rng):
@@ -146,9 +157,13 @@ def test_trim_and_channel_options_fix_the_mismatches(tmp_path, rng):
     assert row["duration_s"] == (clean.size - 160) / FS
 
 
-def test_missing_reference_in_folder_names_the_file(tmp_path, rng, capsys):
+def test_missing_reference_in_folder_fails_that_row_and_names_it(tmp_path, rng, capsys):
     (tmp_path / "deg").mkdir()
     (tmp_path / "ref").mkdir()
     _write(tmp_path / "deg" / "x.wav", _speechlike(rng))
-    assert main(["score", str(tmp_path / "deg"), "--ref", str(tmp_path / "ref"), "--no-dnsmos"]) == 2
-    assert "no reference for" in capsys.readouterr().err
+    _write(tmp_path / "deg" / "y.wav", _speechlike(rng))
+    _write(tmp_path / "ref" / "y.wav", _speechlike(rng))
+    assert main(["score", str(tmp_path / "deg"), "--ref", str(tmp_path / "ref"), "--no-dnsmos"]) == 1
+    rows = {r["utterance"]: r for r in _csv(capsys.readouterr().out)}
+    assert rows["x"]["status"] == "failed" and "no reference x.wav/.flac under" in rows["x"]["error"]
+    assert rows["y"]["status"] == "ok"

@@ -1,10 +1,17 @@
 """``scenesim enhance IN.wav OUT.wav --enhancer NAME [--param k=v ...]``: run one enhancer on a file.
 
 The input is the user's own recording, ``(n_channels, n_samples)`` with channel 0 the
-front/reference mic.  A 1-channel enhancer given a multichannel file gets channel 0 (the
-same convention as a sweep) and says so.  The output is written as a float WAV at the
-input's rate, the same length as the input; its delay relative to the input is the
-enhancer's declared latency, printed at the end.
+front/reference mic; its header's sample rate is held to the range of ``--fs`` before any
+work.  A 1-channel enhancer given a multichannel file gets channel 0 (the same convention as
+a sweep) and says so.  The output is written as a float WAV at the input's rate, the same
+length as the input and **latency compensated**: the enhancer runs on the input followed by
+``L`` samples of silence (``L`` its declared latency) and the first ``L`` output samples are
+dropped, so ``out[n]`` is the response to ``in[n]`` and the tail holds the response to the
+input's end (for a causal enhancer the kept samples equal the uncompensated output shifted
+by ``L``).  ``--keep-latency`` writes today's delayed output instead.  The output's
+``comment`` field records the enhancer, its parameters, the latency and the delay the file
+still holds (:func:`benchmarks.metrics.align.enhance_comment`), which ``scenesim score``
+reads to align the file with its reference.
 
 Stage parameters of a chain use dotted names: ``--param ss.alpha=0.9``.  ``--channels``
 picks channels of a multichannel recording (reference mic first) and ``--fs`` resamples
@@ -19,9 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+import scenesim
 from benchmarks.cli.checks import check_cli_fs, check_input_file, check_out_file, options_named
+from benchmarks.metrics.align import enhance_comment
 from enhancers.core.registry import get, make, with_geometry
-from scenesim.audio import read_audio, write_audio
+from scenesim.audio import check_audio_rate, read_audio, write_audio
 from scenesim.errors import DataError, ParameterError
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 from scenesim.validate import check_physical
@@ -34,8 +43,10 @@ def add_parser(subparsers):
         description=(
             "Run one registered enhancer on your own recording (channel 0 = front/reference "
             "mic). A 1-channel enhancer given a multichannel file gets channel 0. The output "
-            "is a float WAV at the input's rate and length, delayed by the enhancer's declared "
-            "latency (printed). Chain stages take dotted parameters: --param ss.alpha=0.9."
+            "is a float WAV at the input's rate and length with the enhancer's latency removed "
+            "(--keep-latency keeps it); the enhancer, its parameters and the latency are recorded "
+            "in the file's comment field for scenesim score. Chain stages take dotted "
+            "parameters: --param ss.alpha=0.9."
         ),
     )
     p.add_argument("input", type=Path, metavar="IN", help="input audio (channel 0 = front/reference mic)")
@@ -53,6 +64,8 @@ def add_parser(subparsers):
     )
     p.add_argument("--fs", type=int, default=None, help="resample the input to this rate (Hz) first")
     p.add_argument("--trace", type=Path, default=None, metavar="NPZ", help="also save the enhancer's trace (beta, gains, ...) to this .npz")
+    p.add_argument("--keep-latency", action="store_true",
+                   help="write the output delayed by the enhancer's latency (default: latency removed)")
     p.set_defaults(func=run)
     return p
 
@@ -104,6 +117,7 @@ def _output_subtype(path: Path) -> str:
 def _check_options(args) -> str:
     """Every option checked before any work; returns OUT's sample format."""
     check_input_file("IN", args.input)
+    check_audio_rate(args.input)
     args.output = check_out_file("OUT", args.output)
     if args.output.resolve() == args.input.resolve():
         raise ParameterError("OUT", str(args.output), "a file other than IN (it would overwrite the recording)")
@@ -161,21 +175,41 @@ def run(args) -> int:
             stacklevel=1,
         )
 
-    result = enhancer.process(x, fs)
+    latency = tags.latency_samples
+    output, trace = process_compensated(enhancer, x, fs, keep_latency=args.keep_latency)
     if subtype != "FLOAT":
-        peak = float(np.max(np.abs(result.output)))
+        peak = float(np.max(np.abs(output)))
         scaled = f"; scaled from peak {peak:.3g} to 0.99" if peak > 1 else ""
         notes.append(f"{args.output.suffix} holds no float samples: written as {subtype}{scaled}")
-    write_audio(args.output, result.output, fs, subtype=subtype, normalize=True)
+    comment = enhance_comment(enhancer=f"{enhancer.name}@{enhancer.version}", params=enhancer.params.to_dict(),
+                              latency_samples=latency, removed=not args.keep_latency, fs=fs,
+                              scenesim_version=scenesim.__version__)
+    write_audio(args.output, output, fs, subtype=subtype, normalize=True, comment=comment)
     if args.trace is not None:
-        np.savez(args.trace, **{k.replace(".", "__"): v for k, v in result.trace.items()})
+        np.savez(args.trace, **{k.replace(".", "__"): v for k, v in trace.items()})
 
     for note in notes:
         print(f"scenesim enhance: note: {note}", file=sys.stderr)
-    latency = tags.latency_samples
     print(
         f"{enhancer.name}@{enhancer.version}: {args.input} ({x.shape[0]} ch, {x.shape[1]} samples, "
-        f"{fs} Hz) -> {args.output} ({result.output.shape[0]} ch)"
+        f"{fs} Hz) -> {args.output} ({output.shape[0]} ch)"
     )
-    print(f"latency: {latency} samples ({1000.0 * latency / fs:.3f} ms)")
+    state = "kept in the output (--keep-latency)" if args.keep_latency else "removed from the output"
+    print(f"latency: {latency} samples ({1000.0 * latency / fs:.3f} ms), {state}")
     return 0
+
+
+def process_compensated(enhancer, x: np.ndarray, fs: int, *, keep_latency: bool = False):
+    """``(output (n_out, n), trace)`` of ``enhancer`` on ``x`` ``(n_ch, n)`` with its latency removed.
+
+    The input is followed by ``L = tags.latency_samples`` zeros and the output's first ``L``
+    samples are dropped: ``out[:, k] = y[:, k + L]`` where ``y`` is the output on the padded
+    input.  ``keep_latency=True``: the output on ``x`` as it is (delayed by ``L``).
+    """
+    latency = enhancer.tags.latency_samples
+    if keep_latency or latency == 0:
+        result = enhancer.process(x, fs)
+        return result.output, result.trace
+    padded = np.concatenate([x, np.zeros((x.shape[0], latency))], axis=1)
+    result = enhancer.process(padded, fs)
+    return result.output[:, latency:latency + x.shape[1]], result.trace
