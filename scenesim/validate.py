@@ -116,6 +116,8 @@ PHYSICAL_RANGES: dict[str, tuple[float, float, str, str]] = {
     "seed": (0, 2**63 - 1, "", "a seed"),
     # A mic's high-pass corner: above 2 kHz it removes the speech band (phone MEMS: 20-200 Hz).
     "highpass_hz": (0.0, 2000.0, "Hz", "a high-pass corner"),
+    # An RIR outlasts its decay: the longest RT60 (20 s) falls 180 dB in 60 s, far below float resolution.
+    "rir_length_s": (1e-3, 60.0, "s", "an RIR length"),
     # Speed of sound: -50 to +60 degC air.
     "c_mps": (300.0, 400.0, "m/s", "a speed of sound"),
     # The CLI's lowest rate is the telephone band; above 192 kHz no audio interface records.

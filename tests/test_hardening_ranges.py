@@ -4,6 +4,8 @@ the key (and TOML line) or the option typed, and state the valid range."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from benchmarks.cli.main import main
@@ -148,3 +150,28 @@ def test_bench_run_with_a_huge_seed_count_fails_at_once_with_one_line(tmp_path, 
     assert main(["bench", "run", "smoke", "--seeds", "100000000", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert "--seeds=100000000" in err and "\n" not in err and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(("flag", "value", "expected"), [
+    ("--length", "1e6", r"--length=1000000.0 is invalid: expected an RIR length in \[0.001, 60\] s"),
+    ("--max-order", "100000", r"--max-order=100000 is invalid: expected an integer in \[0, 300\]"),
+])
+def test_rir_sizes_past_their_bound_fail_before_any_work(tmp_path, capsys, flag, value, expected):
+    # Before the bounds: --length 1e6 ran for minutes towards 8 GB, --max-order 1e5 asked numpy for 298 GiB.
+    argv = ["rir", "--dims", "5", "4", "3", "--source", "1", "1", "1", "--mic", "3", "3", "1.5",
+            "--absorption", "0.3", flag, value, "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert re.search(expected, err) and "\n" not in err and not (tmp_path / "o").exists()
+
+
+def test_image_source_rir_holds_the_same_bounds():
+    import scenesim
+    from scenesim.errors import ParameterError
+
+    room = scenesim.ShoeBox(dims_m=(5, 4, 3), absorption=0.3)
+    for kwargs in ({"length_s": 61.0}, {"max_order": 301}):
+        with pytest.raises(ParameterError):
+            scenesim.image_source_rir(room, (1, 1, 1), [(3, 3, 1.5)], fs=16000, **kwargs)
+    h = scenesim.image_source_rir(room, (1, 1, 1), [(3, 3, 1.5)], fs=16000, length_s=0.05)
+    assert h.shape == (1, 800)

@@ -75,14 +75,37 @@ def prepare_out_dir(option: str, path, *, create: bool = True) -> Path:
             raise ParameterError(option, str(path), f"a directory path, but {ancestor} is a file")
         _check_writable_dir(option, ancestor, typed=path)
         return path
+    new = [p for p in (path.absolute(), *path.absolute().parents) if not p.exists()]
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ParameterError(
             option, str(path), f"a directory that can be created ({_why(exc)}); choose another {option}"
         ) from None
+    CREATED.extend(new)  # deepest first: removed again if the command is refused (remove_created_dirs)
     _check_writable_dir(option, path)
     return path
+
+
+CREATED: list[Path] = []
+"""Directories :func:`prepare_out_dir` created in this process, deepest first."""
+
+
+def remove_created_dirs() -> None:
+    """Remove the directories this command created that are still empty: a refused command leaves nothing.
+
+    >>> import tempfile
+    >>> base = Path(tempfile.mkdtemp())
+    >>> out = prepare_out_dir("--out", base / "a" / "b")
+    >>> remove_created_dirs(); (base / "a").exists()
+    False
+    """
+    while CREATED:
+        p = CREATED.pop(0)
+        try:
+            p.rmdir()  # only an empty directory: anything written is kept
+        except OSError:
+            pass
 
 
 def check_out_file(option: str, path) -> Path:

@@ -29,10 +29,11 @@ import importlib  # noqa: E402
 import re  # noqa: E402
 import sys  # noqa: E402
 
+from benchmarks.cli.checks import CREATED, remove_created_dirs  # noqa: E402
 from benchmarks.cli.console import cli_warnings  # noqa: E402
 from scenesim.errors import ScenesimError  # noqa: E402
 
-_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin", "tune")
+_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin", "tune", "thesis")
 
 
 def _version() -> str:
@@ -90,14 +91,17 @@ def _commands_for(argv: list[str]) -> tuple[str, ...]:
 def main(argv: list[str] | None = None) -> int:
     argv = _attach_negative_values(sys.argv[1:] if argv is None else list(argv))
     args = build_parser(_commands_for(argv)).parse_args(argv)
+    CREATED.clear()  # only this command's own directories are removed when it is refused
     try:
         with cli_warnings():
             return int(args.func(args) or 0)
     except ScenesimError as exc:
-        # Our own errors are user-facing: one clear line, no traceback.
+        # Our own errors are user-facing: one clear line, no traceback; and nothing left behind.
+        remove_created_dirs()
         print(f"scenesim: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:  # a file-system refusal the commands did not foresee: still one line
+        remove_created_dirs()
         where = f": {exc.filename}" if exc.filename else ""
         print(f"scenesim: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2

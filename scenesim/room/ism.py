@@ -70,7 +70,18 @@ from scenesim.errors import ParameterError
 from scenesim.room.directivity import Directivity
 from scenesim.room.ism_bands import check_bands, merge_bands
 from scenesim.room.shoebox import ShoeBox
-from scenesim.validate import check_choice, check_fs, check_int, check_positive, check_range
+from scenesim.validate import (
+    check_choice,
+    check_fs,
+    check_int,
+    check_physical,
+    check_positive,
+    check_range,
+)
+
+MAX_ORDER = 300
+"""Largest image order: the orders a 20 s RT60 needs in the smallest room the validator admits stay below it,
+and its L1 ball already holds ~3.6e7 images (larger is a typo that would allocate past the machine)."""
 
 SINC_HALF_WIDTH = 40
 """Half width T (samples) of the Hann-windowed sinc: support |t| < T (81-tap footprint)."""
@@ -435,7 +446,7 @@ def _validate_common(room, source_m, mics_m, fs, method, c, max_order, reflectio
         )
     c = room.c if c is None else check_positive("c", c)
     if max_order is not None:
-        max_order = check_int("max_order", max_order, minimum=0)
+        max_order = check_int("max_order", max_order, minimum=0, maximum=MAX_ORDER)
     if reflection_sign not in (1, -1, 1.0, -1.0) or isinstance(reflection_sign, bool):
         raise ParameterError("reflection_sign", reflection_sign, "+1 or -1")
     if highpass_hz is not None:
@@ -540,7 +551,7 @@ def _image_set(room, src, mics, fs, c, max_order, length_s, sign, refl, radius_m
     if length_s is None and max_order is None:
         length_s = default_length_s(room, src, mics, c)
     if length_s is not None:
-        length_s = check_positive("length_s", length_s)
+        length_s = check_physical("length_s", length_s, "rir_length_s")
         n_taps = max(1, math.ceil(length_s * fs - 1e-9))
         radius = (n_taps - 1 + SINC_HALF_WIDTH) * c / fs
         if radius_m is not None:
@@ -759,7 +770,7 @@ def _hybrid(room, src, mics, fs, c, max_order, length_s, sign, refl, pattern, mi
             length_s = default_length_s(room, src, mics, c)
         else:  # the full ISM's default length with this order
             length_s = (_image_set(room, src, mics, fs, c, max_order, None, sign, refl[:1])[1]) / fs
-    n_taps = max(1, math.ceil(check_positive("length_s", length_s) * fs - 1e-9))
+    n_taps = max(1, math.ceil(check_physical("length_s", length_s, "rir_length_s") * fs - 1e-9))
     n_mix = min(n_taps, max(1, round(t_mix * fs)))
     # Images reaching any tap < n_mix: the early taps equal the full ISM's.
     radius = (n_mix - 1 + SINC_HALF_WIDTH) * c / fs
