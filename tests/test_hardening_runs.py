@@ -216,3 +216,20 @@ def test_load_results_on_a_real_sweeps_store(tmp_path, capsys):
     np.testing.assert_allclose(df["snr_i_db"].to_numpy(dtype=float), [r[1] for r in stored], rtol=0, atol=0)
     assert df["snr_i_db"].iloc[0] == pytest.approx(0.0, abs=1e-9) and df["snr_i_db"].iloc[1] != 0.0
     assert df["pesq_nb_out"].dtype.kind == "f" and df["condition_json"].iloc[0] == stored[0][3]
+
+
+def test_a_corrupt_store_is_one_line_from_compare_and_from_load_results(tmp_path, capsys):
+    # Every way in to a store (the CLI's compare, the Python API) reports sqlite's "not a database" as the
+    # store's one-line error, never a sqlite3 traceback.
+    import benchmarks
+    from benchmarks.cli.main import main
+    from scenesim.errors import DataError
+
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "results.sqlite").write_text("garbage, not sqlite")
+    with pytest.raises(DataError, match=r"results.sqlite is corrupt or unreadable \(file is not a database\)"):
+        benchmarks.load_results(bad)
+    assert main(["bench", "compare", str(bad), str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("scenesim: error: the results store") and "\n" not in err and "Traceback" not in err

@@ -13,6 +13,7 @@ import sqlite3
 import tempfile
 from pathlib import Path
 
+from benchmarks.store.errors import corrupt_store_error, is_corruption  # noqa: F401  (re-exported)
 from scenesim.errors import DataError, ParameterError
 from scenesim.validate import PHYSICAL_RANGES, check_physical
 
@@ -162,38 +163,6 @@ def check_store_readable(store_path) -> None:
                 pass
     finally:
         db.close()
-
-
-#: sqlite primary result codes (low byte) of a refused write or open: SQLITE_FULL (ENOSPC, EFBIG,
-#: EDQUOT), READONLY, IOERR, CANTOPEN, PERM.  The file on disk is intact after these; every other
-#: failure (CORRUPT, NOTADB, text that does not decode) means the store itself is damaged.
-_WRITE_REFUSED_CODES = {13: "SQLITE_FULL", 8: "SQLITE_READONLY", 10: "SQLITE_IOERR", 14: "SQLITE_CANTOPEN",
-                        3: "SQLITE_PERM"}
-
-
-def is_corruption(exc: sqlite3.DatabaseError) -> bool:
-    """False when sqlite reports a refused write or open (the store is intact), else True."""
-    code = getattr(exc, "sqlite_errorcode", None)
-    if code is not None:
-        return (code & 0xFF) not in _WRITE_REFUSED_CODES
-    text = str(exc).lower()  # Python < 3.11 has no error codes: sqlite's fixed messages
-    return not any(w in text for w in ("disk is full", "readonly", "disk i/o error", "unable to open"))
-
-
-def corrupt_store_error(store_path: Path, exc: sqlite3.DatabaseError) -> DataError:
-    """The one-line error for a results store sqlite cannot read or write: how to move a damaged
-    store aside, or -- when a write was refused (disk full, file-size limit, quota, read-only) --
-    that the store is intact and how to resume."""
-    if not is_corruption(exc):
-        return DataError(
-            f"could not write the results store {store_path} ({exc}: the disk is full, a file-size limit "
-            f"or quota was hit, or the file system is read-only); the store is intact and keeps every "
-            f"row written so far. Free space or lift the limit, then rerun the same command to resume"
-        )
-    return DataError(
-        f"the results store {store_path} is corrupt or unreadable ({exc}); nothing was written. "
-        f"Move it aside (mv {store_path} {store_path}.corrupt) and rerun to start a new store"
-    )
 
 
 @contextlib.contextmanager

@@ -26,6 +26,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from benchmarks.store.errors import store_errors
 from scenesim.errors import DataError
 
 log = logging.getLogger(__name__)
@@ -204,6 +205,10 @@ class ResultStore:
 
     def __init__(self, path: str | Path, *, readonly: bool = False):
         self.path = Path(path)
+        with store_errors(self.path):  # a damaged file: one line saying how to move it aside
+            self._connect(readonly)
+
+    def _connect(self, readonly: bool) -> None:
         if readonly:
             if not self.path.is_file():
                 raise DataError(f"no results store at {self.path}")
@@ -378,13 +383,16 @@ class ResultStore:
     def rows(self, where: str = "", params: Sequence[Any] = ()) -> list[dict[str, Any]]:
         """All rows (optionally filtered by an SQL ``where`` clause) as dicts, in insertion order."""
         sql = "SELECT * FROM results" + (f" WHERE {where}" if where else "") + " ORDER BY rowid"
-        return [dict(r) for r in self._db.execute(sql, tuple(params))]
+        with store_errors(self.path):  # pages damaged past the header fail only when read
+            return [dict(r) for r in self._db.execute(sql, tuple(params))]
 
     def count(self) -> int:
-        return self._db.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+        with store_errors(self.path):
+            return self._db.execute("SELECT COUNT(*) FROM results").fetchone()[0]
 
     def runs(self) -> list[dict[str, Any]]:
-        return [dict(r) for r in self._db.execute("SELECT * FROM runs ORDER BY started_at")]
+        with store_errors(self.path):
+            return [dict(r) for r in self._db.execute("SELECT * FROM runs ORDER BY started_at")]
 
 
 def _sql_value(value: Any) -> Any:
