@@ -49,3 +49,13 @@ def test_option_the_recipe_does_not_take_is_named(tmp_path, capsys):
     code = main(["data", "prepare", "artificial-voice", "--dest", str(tmp_path), "--talkers", "bdl"])
     assert code == 2
     assert "talkers" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("recipe", ["local", "noisex92"])
+def test_prepare_without_src_names_the_option_and_how_to_give_it(tmp_path, capsys, recipe):
+    from benchmarks.cli.main import main
+
+    assert main(["data", "prepare", recipe, "--dest", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"the {recipe} recipe needs --src DIR" in err and "None" not in err and "\n" not in err
+    assert not (tmp_path / "d").exists()  # refused before anything was created

@@ -53,10 +53,18 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Recipes that read a folder of the user's, and what the folder holds.
+_NEEDS_SRC = {"local": "the folder to validate, with speech/ and noise/", "noisex92": "the NOISEX-92 files"}
+
+
 def _prepare(args: argparse.Namespace) -> int:
     import data_recipes
-    from benchmarks.cli.checks import prepare_out_dir
+    from benchmarks.cli.checks import options_named, prepare_out_dir
+    from scenesim.errors import ConfigError
 
+    if args.src is None and args.recipe in _NEEDS_SRC:
+        raise ConfigError(f"the {args.recipe} recipe needs --src DIR ({_NEEDS_SRC[args.recipe]}): "
+                          f"scenesim data prepare {args.recipe} --src DIR")
     if args.dest is not None:
         args.dest = prepare_out_dir("--dest", args.dest, create=False)
     options = {}
@@ -70,7 +78,9 @@ def _prepare(args: argparse.Namespace) -> int:
         options["base_url"] = args.base_url
     if args.fs is not None:
         options["fs"] = args.fs
-    manifest = data_recipes.prepare(args.recipe, args.dest, **options)  # warnings: main's console lines
+    with options_named({"src": "--src", "dest": "--dest", "talkers": "--talkers", "utterances": "--utterances",
+                        "base_url": "--base-url", "fs": "--fs"}):
+        manifest = data_recipes.prepare(args.recipe, args.dest, **options)  # warnings: main's console lines
     files = manifest.get("files") or (manifest.get("speech", []) + manifest.get("noise", []))
     where = manifest.get("dest") or (str(args.dest) if args.dest else manifest.get("root", ""))
     print(f"{args.recipe}: {len(files)} file(s) in {where}")
