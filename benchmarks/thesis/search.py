@@ -19,6 +19,12 @@ beta_max        1 (Elko: null anywhere in the rear half plane), 0.5, 0.2 (null k
 eq_fc_hz        corner of the "first-order low-pass" at the output, 50..600 Hz (not given)
 eq_hf           ``0``: that low-pass alone / ``None``: plus our high-frequency correction
 ss_alpha        SS smoothing 0.9 / 0.95 (section 5.2.6 gives the range; 6.2 lost the value)
+osub            SS over-subtraction: ``berouti`` (osub = 4 - 0.15 SNR in [1, 4.75], algorithms.md 6)
+                or fixed at 1 or 2 (``fixed1``, ``fixed2``): the rule is lost from the text
+subf            SS spectral floor 0.01 / 0.02 / 0.05 (lost)
+subtract        SS ``magnitude`` / ``power`` subtraction (lost; :mod:`enhancers.single.ss`)
+measure         output SNR by ``replay`` / ``y-s`` / ``hagerman`` (:mod:`benchmarks.thesis.measure`):
+                eq. 7.1 names the powers, not how speech and noise were told apart at the output
 ==============  ================================================================================
 
 Fixed by the text: 16 kHz, d = 2.14 cm with exactly one sample of internal delay, far-field
@@ -34,456 +40,60 @@ Stages: (1) a coarse factorial grid on the 18 EB cells by SNR-I only (fast: the 
 sequence does not depend on the output filter, so every ``eq`` variant reuses one run);
 (2) the best kept reading of each (convention, adaptation, beta limit) family, ``--top`` of them,
 on the 18 EB cells with raw PESQ, ranked by :func:`combined` (each mean distance over its target);
-(3) refine ``fd_taps`` and ``eq_fc_hz`` around the leader by SNR-I; (4) that reading with both SS
-alphas on all 54 cells with PESQ.  Readings whose EB trend error exceeds
+(3) refine ``fd_taps`` and ``eq_fc_hz`` around the leader by SNR-I; (4) the SS stage: that EB reading
+with every combination of the SS unknowns (:data:`SS_GRID`, 36) on all 54 cells by SNR-I under each of
+the three measurements (108 readings; one run of ``s + n`` and one of ``s - n`` per cell serve all
+three), the best :data:`SS_TOP` again with PESQ, ranked by :func:`combined`.  The EB unknowns are
+chosen under ``replay`` (stages 1-3) and the measurement after them.  Readings whose EB trend error exceeds
 :data:`TREND_LIMIT_DB` or whose EB mean ``|ΔSNR-I|`` exceeds :data:`EB_LIMIT_DB` are excluded.
 Scenes are rendered once per (model, noise) and reused.
 """
 
 from __future__ import annotations
 
-import argparse
-import dataclasses
-import itertools
-import math
 import sys
-import time
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
-
-import numpy as np
-
-from benchmarks.thesis.reference import THESIS_NOISES, ThesisRow, load_thesis_tables
-
-THESIS_SNRS = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0)
-TREND_LIMIT_DB = 3.0
-"""A reading whose EB SNR-I trend (25 dB minus 0 dB input) misses the thesis' by more is excluded."""
-EB_LIMIT_DB = 6.0
-"""A reading whose mean |ΔSNR-I| over the 18 EB cells exceeds this is excluded."""
-ADAPT = {
-    "free": {"mu": 0.05},
-    "slow": {"mu": 0.005},
-    "gated": {"mu": 0.05, "adapt_gate_db": 3.0, "gate_floor_s": 1.0},
-}
-"""NLMS readings: always adapting (two steps), or frozen while a frontal source dominates."""
-COARSE = {
-    "azimuth_from": ("axis", "broadside"),
-    "fd_taps": (9, 17, 33, 65),
-    "fd_window": ("rect", "hann"),
-    "adapt": tuple(ADAPT),
-    "beta_max": (1.0, 0.5, 0.2),
-    "eq_fc_hz": (50.0, 150.0, 300.0, 600.0),
-    "eq_hf": (0.0, None),
-}
-"""The coarse grid of the EB unknowns (a full factorial)."""
-SS_ALPHAS = (0.9, 0.95)
-
-
-@dataclass(frozen=True)
-class Reading:
-    """One value for every unknown (see the module docstring)."""
-
-    azimuth_from: str = "broadside"
-    fd_taps: int = 33
-    fd_window: str = "rect"
-    adapt: str = "gated"
-    beta_max: float = 1.0
-    eq_fc_hz: float = 150.0
-    eq_hf: float | None = 0.0
-    ss_alpha: float = 0.9
-
-    def scene_key(self) -> tuple:
-        return (self.azimuth_from, self.fd_taps, self.fd_window)
-
-    def eb_params(self) -> dict:
-        """``[enhancer_params.eb]`` of this reading (one-sample internal delay, first-order low-pass)."""
-        out = {"t_samples": 1.0, "beta_max": self.beta_max, "eq_fc_hz": self.eq_fc_hz, **ADAPT[self.adapt]}
-        if self.eq_hf is not None:
-            out["eq_hf"] = self.eq_hf
-        return out
-
-    def ss_params(self) -> dict:
-        """``[enhancer_params.ss]``: chapter 6.2 (D = 200 frames as 8 x 25, omin = 0.99) and alpha."""
-        return {"n_sub": 8, "sub_len": 25, "omin": 0.99, "alpha": self.ss_alpha}
-
-    def label(self) -> str:
-        hf = "+hf" if self.eq_hf is None else ""
-        return (f"{self.azimuth_from} L={self.fd_taps} {self.fd_window} {self.adapt} bmax={self.beta_max:g} "
-                f"lp={self.eq_fc_hz:g}Hz{hf} a={self.ss_alpha:g}")
-
-
-@dataclass(frozen=True)
-class Score:
-    """Distance of a reading's cells from the printed tables (NaN where nothing was compared)."""
-
-    snr_i: float
-    pesq: float
-    trend: float
-    n_snr: int
-    n_pesq: int
-
-
-def score_cells(ours: Mapping[tuple, tuple], rows: Sequence[ThesisRow] | None = None) -> Score:
-    """Compare ``ours[(system, noise, snr_in)] = (snr_i_db, pesq_raw_out or None)`` with the tables.
-
-    ``snr_i``: mean ``|ours - thesis|`` of SNR-I over the cells present; ``pesq``: the same for
-    raw PESQ out over the cells with a PESQ; ``trend``: over the noises with EB cells at 0 and
-    25 dB, mean ``|(ours25 - ours0) - (thesis25 - thesis0)|``.
-
-    >>> row = ThesisRow("7.1", "EB", "babble", 0.0, 13.0, 13.0, 1.6, 2.0, 0.4)
-    >>> s = score_cells({("EB", "babble", 0.0): (11.0, 2.5)}, [row])
-    >>> s.snr_i, s.pesq, s.n_snr
-    (2.0, 0.5, 1)
-    """
-    rows = load_thesis_tables() if rows is None else rows
-    table = {(r.system, r.noise, float(r.snr_in_db)): r for r in rows}
-    d_snr, d_pesq = [], []
-    for key, (snr_i, pesq) in ours.items():
-        ref = table.get((key[0], key[1], float(key[2])))
-        if ref is None:
-            continue
-        d_snr.append(abs(snr_i - ref.snr_i_db))
-        if pesq is not None:
-            d_pesq.append(abs(pesq - ref.pesq_out))
-    trends = []
-    for noise in {k[1] for k in ours}:
-        a, b = ("EB", noise, 0.0), ("EB", noise, 25.0)
-        if a in ours and b in ours and a in table and b in table:
-            trends.append(abs((ours[b][0] - ours[a][0]) - (table[b].snr_i_db - table[a].snr_i_db)))
-    return Score(_mean(d_snr), _mean(d_pesq), _mean(trends), len(d_snr), len(d_pesq))
-
-
-def _mean(values: Sequence[float]) -> float:
-    return float(np.mean(values)) if values else math.nan
-
-
-# -- the cells: data, scenes, runs ---------------------------------------------------------
-
-
-class Cells:
-    """Speech, noises and rendered scenes of the thesis' conditions (cached per model and noise)."""
-
-    def __init__(self, data_dir: str | None = None, *, duration_s: float = 8.0, seed: int = 0,
-                 aliases: Mapping[str, str] | None = None, noises: Sequence[str] = THESIS_NOISES,
-                 snrs: Sequence[float] = THESIS_SNRS):
-        from data_recipes import open_data
-
-        self.fs = 16000
-        ds = open_data(data_dir, fs=self.fs)
-        self.speech = np.asarray(ds.speech(duration_s, seed=seed).signal, dtype=float)
-        aliases = dict(aliases or {})
-        self.noises = tuple(noises)
-        self.snrs = tuple(float(s) for s in snrs)
-        self.noise = {n: np.asarray(ds.noise(aliases.get(n, n), duration_s, seed=seed).signal, dtype=float)
-                      for n in self.noises}
-        self._images: dict[tuple, object] = {}
-
-    def images(self, reading: Reading, noise: str):
-        """:class:`scenesim.scene.compose.SceneImages` of the thesis scene under the reading's model."""
-        key = (reading.scene_key(), noise)
-        if key not in self._images:
-            from scenesim.scene.compose import NoiseSource, Scene, SourcePlacement, render_images
-            from scenesim.scene.thesis_farfield import ThesisFarField
-
-            model = ThesisFarField(fd_taps=reading.fd_taps, fd_window=reading.fd_window,
-                                   azimuth_from=reading.azimuth_from)
-            scene = Scene(fs=self.fs, speech=SourcePlacement(azimuth_deg=45.0),
-                          noises=(NoiseSource(azimuth_deg=270.0),), thesis_far_field=model)
-            self._images[key] = render_images(scene, self.speech, [self.noise[noise]])
-        return self._images[key]
-
-
-def _snr_db(s: np.ndarray, n: np.ndarray) -> float:
-    return float(10 * np.log10(np.mean(s * s) / max(float(np.mean(n * n)), 1e-300)))
-
-
-def _make(name: str, **params):
-    from enhancers.core.registry import make, with_geometry
-
-    return with_geometry(make(name, **params), spacing_m=0.0214)
-
-
-def eb_snr_i(cells: Cells, readings: Iterable[Reading]) -> dict[Reading, dict[tuple, tuple]]:
-    """SNR-I of the 18 EB cells for many readings; one EB run per (scene, adapt, beta_max)."""
-    out: dict[Reading, dict[tuple, tuple]] = {}
-    groups: dict[tuple, list[Reading]] = {}
-    for r in readings:
-        groups.setdefault((r.scene_key(), r.adapt, r.beta_max), []).append(r)
-    for group in groups.values():
-        base = _make("eb", **{**group[0].eb_params(), "eq": False})
-        from scipy.signal import (
-            lfilter,  # lazy: the report imports this module and needs no scipy.signal (~1.3 s)
-        )
-
-        eqs = {r: _make("eb", **r.eb_params()).filters(cells.fs) for r in group}
-        for noise in cells.noises:
-            images = cells.images(group[0], noise)
-            for snr in cells.snrs:
-                mix = images.mix(snr)
-                res = base.process(mix.mixture, fs=cells.fs)
-                ys, yn = res.replay(mix.speech_image)[0], res.replay(mix.noise_image)[0]
-                for r, f in eqs.items():
-                    s_out, n_out = lfilter(f.eq_b, f.eq_a, ys), lfilter(f.eq_b, f.eq_a, yn)
-                    out.setdefault(r, {})[("EB", noise, snr)] = (_snr_db(s_out, n_out) - snr, None)
-    return out
-
-
-def _pesq_raw(ref: np.ndarray, deg: np.ndarray, fs: int) -> float:
-    from pesq import pesq
-
-    from benchmarks.metrics.speech import pesq_raw_from_mos_lqo
-
-    return pesq_raw_from_mos_lqo(float(pesq(fs, ref, deg, "nb")))
-
-
-def full_cells(cells: Cells, reading: Reading, *, with_pesq: bool = True,
-               systems: Sequence[str] = ("EB", "SS", "EB-SS")) -> dict[tuple, tuple]:
-    """The cells of ``systems`` (all 54 by default) of one reading: SNR-I by replay, raw PESQ out."""
-    from benchmarks.metrics.speech import align
-
-    make = {"EB": lambda: _make("eb", **reading.eb_params()), "SS": lambda: _make("ss", **reading.ss_params()),
-            "EB-SS": lambda: _make("eb-ss", eb=reading.eb_params(), ss=reading.ss_params())}
-    systems = {name: make[name]() for name in systems}
-    out = {}
-    for noise in cells.noises:
-        images = cells.images(reading, noise)
-        for snr in cells.snrs:
-            mix = images.mix(snr)
-            for system, enh in systems.items():
-                x, s, n = ((mix.mixture[:1], mix.speech_image[:1], mix.noise_image[:1]) if system == "SS"
-                           else (mix.mixture, mix.speech_image, mix.noise_image))
-                res = enh.process(x, fs=cells.fs)
-                snr_i = _snr_db(res.replay(s)[0], res.replay(n)[0]) - snr
-                pesq = None
-                if with_pesq:
-                    y, ref = align(res.output[0], mix.reference[0], latency_samples=enh.tags.latency_samples)
-                    pesq = _pesq_raw(ref, y, cells.fs)
-                out[(system, noise, snr)] = (snr_i, pesq)
-    return out
-
-
-# -- the search ----------------------------------------------------------------------------
-
-
-BEST = Reading(azimuth_from="broadside", fd_taps=73, fd_window="hann", adapt="slow", beta_max=0.2,
-               eq_fc_hz=60.0, eq_hf=0.0, ss_alpha=0.95)
-"""The winner of the search on the built-in data and on ``../shared/data`` alike (2026-12-01): the
-reading of the ``thesis-repro`` preset (a test keeps the two equal)."""
-
-
-def coarse_grid(grid: Mapping[str, Sequence] = COARSE) -> list[Reading]:
-    """Every combination of the grid's values (a full factorial) as readings."""
-    keys = list(grid)
-    return [Reading(**dict(zip(keys, combo))) for combo in itertools.product(*(grid[k] for k in keys))]
-
-
-def refine(best: Reading) -> list[Reading]:
-    """Neighbours of ``best`` in the two continuous unknowns: sinc length and low-pass corner."""
-    taps = sorted({t for t in (best.fd_taps + k for k in (-8, -4, 0, 4, 8)) if t >= 3})
-    corners = sorted({round(best.eq_fc_hz * f, 1) for f in (0.7, 0.85, 1.0, 1.2, 1.4)})
-    return [dataclasses.replace(best, fd_taps=t, eq_fc_hz=f) for t in taps for f in corners]
-
-
-def excluded_because(score: Score) -> str | None:
-    """Why a reading is excluded (EB trend or EB level), or None when it is kept."""
-    if score.trend > TREND_LIMIT_DB:
-        return f"EB trend off by {score.trend:.1f} dB (> {TREND_LIMIT_DB:g}): not the thesis' flat SNR-I"
-    if score.snr_i > EB_LIMIT_DB:
-        return f"EB SNR-I off by {score.snr_i:.1f} dB on average (> {EB_LIMIT_DB:g})"
-    return None
-
-
-def sensitivity(cells: Cells, best: Reading, grid: Mapping[str, Sequence] = COARSE) -> dict[str, tuple]:
-    """EB mean |ΔSNR-I| (18 cells) as each unknown moves over its grid, the others at ``best``.
-
-    Returns ``{unknown: (min score, max score, value at min, value at max)}``.
-    """
-    out = {}
-    for key, values in grid.items():
-        variants = [dataclasses.replace(best, **{key: v}) for v in values]
-        res = eb_snr_i(cells, variants)
-        scores = [(score_cells(res[r]).snr_i, v) for r, v in zip(variants, values)]
-        lo, hi = min(scores, key=lambda t: t[0]), max(scores, key=lambda t: t[0])
-        out[key] = (lo[0], hi[0], lo[1], hi[1])
-    return out
-
-
-def combined(score: Score) -> float:
-    """One number to rank by: each mean distance in units of its target (2 dB SNR-I, 0.2 PESQ)."""
-    return score.snr_i / 2.0 + (0.0 if math.isnan(score.pesq) else score.pesq / 0.2)
-
-
-def _families(scored: Mapping[Reading, Score], kept: Sequence[Reading], n: int) -> list[Reading]:
-    """The best kept reading of each (angle convention, adaptation, beta limit) family, best ``n``."""
-    best: dict[tuple, Reading] = {}
-    for r in kept:  # kept is sorted by score: the first of a family is its best
-        best.setdefault((r.azimuth_from, r.adapt, r.beta_max), r)
-    out, seen = [], set()
-    for r in sorted(best.values(), key=lambda r: scored[r].snr_i):
-        key = (round(scored[r].snr_i, 9), round(scored[r].trend, 9))  # a limit beta never reaches: same cells
-        if key not in seen:
-            seen.add(key)
-            out.append(r)
-    return out[:n]
-
-
-def run_search(cells: Cells, *, top: int = 6, with_pesq: bool = True, grid: Mapping[str, Sequence] = COARSE,
-               coarse_snrs: Sequence[float] = (0.0, 10.0, 25.0), log=print) -> dict:
-    """Coarse grid -> PESQ on the EB cells of the ``top`` families -> refine -> all 54 cells."""
-    t0 = time.perf_counter()
-    full_snrs = cells.snrs
-    cells.snrs = tuple(s for s in full_snrs if s in coarse_snrs) or full_snrs
-    coarse = eb_snr_i(cells, coarse_grid(grid))
-    cells.snrs = full_snrs
-    scored = {r: score_cells(c) for r, c in coarse.items()}
-    excluded = {r: why for r, s in scored.items() if (why := excluded_because(s))}
-    kept = sorted((r for r in scored if r not in excluded), key=lambda r: scored[r].snr_i)
-    log(f"coarse: {len(scored)} readings on {len(cells.noises) * len(coarse_snrs)} EB cells, "
-        f"{len(excluded)} excluded ({time.perf_counter() - t0:.0f} s)")
-    families = {r: score_cells(full_cells(cells, r, with_pesq=with_pesq, systems=("EB",)))
-                for r in _families(scored, kept, top)}
-    log(f"families: {len(families)} on the 18 EB cells with PESQ ({time.perf_counter() - t0:.0f} s)")
-    if not families:
-        return {"coarse": scored, "excluded": excluded, "families": {}, "fine": {}, "finalists": [],
-                "best": None, "sensitivity": {}, "seconds": time.perf_counter() - t0}
-    lead = min(families, key=lambda r: combined(families[r]))
-    fine = {r: score_cells(c) for r, c in eb_snr_i(cells, refine(lead)).items()}
-    tuned = min((r for r, s in fine.items() if not excluded_because(s)), key=lambda r: fine[r].snr_i, default=lead)
-    log(f"refine: {len(fine)} readings on the 18 EB cells ({time.perf_counter() - t0:.0f} s)")
-    finalists = []
-    for alpha in SS_ALPHAS:
-        rr = dataclasses.replace(tuned, ss_alpha=alpha)
-        cells_rr = full_cells(cells, rr, with_pesq=with_pesq)
-        finalists.append((rr, score_cells(cells_rr), cells_rr))
-    finalists.sort(key=lambda t: combined(t[1]))
-    log(f"final: {len(finalists)} readings on all {len(cells.noises) * len(full_snrs) * 3} cells "
-        f"({time.perf_counter() - t0:.0f} s)")
-    best = finalists[0][0]
-    return {"coarse": scored, "excluded": excluded, "families": families, "fine": fine, "finalists": finalists,
-            "best": best, "sensitivity": sensitivity(cells, best, grid), "seconds": time.perf_counter() - t0}
-
-
-# -- printing ------------------------------------------------------------------------------
-
-
-def residual_table(cells_of_best: Mapping[tuple, tuple]) -> list[tuple]:
-    """Per (table, system, noise): mean ΔSNR-I, mean |ΔSNR-I|, mean Δ raw PESQ out (ours - thesis)."""
-    out = []
-    for (table, system, noise), rows in _by_table().items():
-        d_snr = [cells_of_best[(system, noise, r.snr_in_db)][0] - r.snr_i_db for r in rows
-                 if (system, noise, r.snr_in_db) in cells_of_best]
-        d_pesq = [cells_of_best[(system, noise, r.snr_in_db)][1] - r.pesq_out for r in rows
-                  if cells_of_best.get((system, noise, r.snr_in_db), (0, None))[1] is not None]
-        if d_snr:
-            out.append((table, system, noise, float(np.mean(d_snr)), float(np.mean(np.abs(d_snr))),
-                        float(np.mean(d_pesq)) if d_pesq else math.nan))
-    return out
-
-
-def _by_table() -> dict[tuple, list[ThesisRow]]:
-    groups: dict[tuple, list[ThesisRow]] = {}
-    for r in load_thesis_tables():
-        groups.setdefault((r.table, r.system, r.noise), []).append(r)
-    return groups
-
-
-def exclusion_summary(result: Mapping) -> list[str]:
-    """Per unknown value: how many of its coarse readings were excluded, the best EB mean |ΔSNR-I|
-    among the others, and the reasons counted."""
-    scored, excluded = result["coarse"], result["excluded"]
-    lines = []
-    for key in COARSE:
-        parts = []
-        for value in COARSE[key]:
-            rs = [r for r in scored if getattr(r, key) == value]
-            n_ex = sum(r in excluded for r in rs)
-            best = min((scored[r].snr_i for r in rs if r not in excluded), default=math.nan)
-            parts.append(f"{value}: {n_ex}/{len(rs)} (best kept {best:.2f})")
-        lines.append(f"  {key:13s} " + ", ".join(parts))
-    reasons: dict[str, int] = {}
-    for why in excluded.values():
-        head = why.split(" off by")[0]
-        reasons[head] = reasons.get(head, 0) + 1
-    lines.append("  reasons: " + ", ".join(f"{k}: {v}" for k, v in sorted(reasons.items())))
-    return lines
-
-
-def report_lines(result: Mapping, *, n_rank: int = 10) -> list[str]:
-    """The search's printout: ranking, finalists, residuals, sensitivity, exclusions, time."""
-    lines = ["Coarse ranking (EB cells, SNR-I only; kept readings):",
-             f"  {'mean|dSNR-I|':>12s} {'trend':>6s}  reading"]
-    kept = sorted((r for r in result["coarse"] if r not in result["excluded"]),
-                  key=lambda r: result["coarse"][r].snr_i)
-    for r in kept[:n_rank]:
-        s = result["coarse"][r]
-        lines.append(f"  {s.snr_i:12.2f} {s.trend:6.2f}  {r.label()}")
-    lines += ["", "Families (best kept of each; 18 EB cells with PESQ):",
-              f"  {'combined':>8s} {'mean|dSNR-I|':>12s} {'mean|dPESQ|':>11s} {'trend':>6s}  reading"]
-    for r, s in sorted(result["families"].items(), key=lambda t: combined(t[1])):
-        lines.append(f"  {combined(s):8.2f} {s.snr_i:12.2f} {s.pesq:11.3f} {s.trend:6.2f}  {r.label()}")
-    lines += ["", "Finalists (all 54 cells):", f"  {'mean|dSNR-I|':>12s} {'mean|dPESQ|':>11s} {'trend':>6s}  reading"]
-    for r, s, _ in result["finalists"]:
-        lines.append(f"  {s.snr_i:12.2f} {s.pesq:11.3f} {s.trend:6.2f}  {r.label()}")
-    if result["finalists"]:
-        best, _, cells = result["finalists"][0]
-        lines += ["", f"Best reading: {best.label()}", "  [enhancer_params.eb] " + str(best.eb_params()),
-                  "  [enhancer_params.ss] " + str(best.ss_params()), "",
-                  "Residuals of the best (ours - thesis):",
-                  f"  {'table':5s} {'system':6s} {'noise':8s} {'dSNR-I':>7s} {'|dSNR-I|':>8s} {'dPESQ':>6s}"]
-        for t, sysname, noise, d, ad, dp in residual_table(cells):
-            lines.append(f"  {t:5s} {sysname:6s} {noise:8s} {d:7.2f} {ad:8.2f} {dp:6.3f}")
-    lines += ["", "Sensitivity (EB mean |dSNR-I| over its grid, the others at the best):"]
-    for key, (lo, hi, vlo, vhi) in result["sensitivity"].items():
-        lines.append(f"  {key:13s} {lo:6.2f} .. {hi:6.2f} dB  (moves {hi - lo:5.2f}; best at {vlo}, worst at {vhi})")
-    lines += ["", "Excluded coarse readings per unknown value:", *exclusion_summary(result),
-              "", f"Search time: {result['seconds']:.0f} s"]
-    return lines
-
-
-def _aliases(items: Sequence[str]) -> dict[str, str]:
-    out = {}
-    for item in items:
-        name, sep, target = item.partition("=")
-        if not sep or not name or not target:
-            raise SystemExit(f"--alias expects NOISE=TYPE (e.g. babble=cafe), got {item!r}")
-        out[name] = target
-    return out
+from collections.abc import Sequence
+
+from benchmarks.thesis.readings import (  # the search's names, where they have always been importable
+    ADAPT,
+    BEST,
+    COARSE,
+    EB_LIMIT_DB,
+    OSUB,
+    SMALL,
+    SS_GRID,
+    SS_TOP,
+    THESIS_SNRS,
+    TREND_LIMIT_DB,
+    Cells,
+    Reading,
+    Score,
+    cell_runs,
+    coarse_grid,
+    combined,
+    eb_snr_i,
+    evaluate_lines,
+    excluded_because,
+    exclusion_summary,
+    full_cells,
+    pick,
+    refine,
+    report_lines,
+    residual_table,
+    run_search,
+    score_cells,
+    sensitivity,
+    ss_stage,
+)
+
+__all__ = ["THESIS_SNRS", "TREND_LIMIT_DB", "EB_LIMIT_DB", "ADAPT", "COARSE", "SMALL", "OSUB", "SS_GRID", "SS_TOP", "Reading", "Score", "score_cells", "Cells", "eb_snr_i", "cell_runs", "pick", "full_cells", "BEST", "coarse_grid", "refine", "excluded_because", "sensitivity", "combined", "run_search", "ss_stage", "residual_table", "exclusion_summary", "report_lines", "evaluate_lines", "main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m benchmarks.thesis.search", description=__doc__.split("\n")[0])
-    ap.add_argument("--data-dir", default=None, help="data directory (default: built-in data)")
-    ap.add_argument("--alias", nargs="*", default=[], metavar="NOISE=TYPE",
-                    help="use the directory's TYPE files for a thesis noise, e.g. babble=cafe factory=machinery")
-    ap.add_argument("--duration", type=float, default=8.0, help="seconds of speech per cell (default 8)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--top", type=int, default=6, help="reading families scored with PESQ (default 6)")
-    ap.add_argument("--no-pesq", action="store_true", help="skip PESQ (SNR-I only)")
-    ap.add_argument("--evaluate", action="store_true",
-                    help="no search: score the preset's reading (BEST) on all 54 cells of this data")
-    args = ap.parse_args(argv)
-    t0 = time.perf_counter()
-    cells = Cells(args.data_dir, duration_s=args.duration, seed=args.seed, aliases=_aliases(args.alias))
-    print(f"data: {args.data_dir or 'built-in'} {_aliases(args.alias) or ''} ({time.perf_counter() - t0:.0f} s)")
-    if args.evaluate:
-        print("\n".join(evaluate_lines(cells, BEST, with_pesq=not args.no_pesq)))
-        return 0
-    result = run_search(cells, top=args.top, with_pesq=not args.no_pesq)
-    print("\n".join(report_lines(result)))
-    return 0
+    """``python -m benchmarks.thesis.search``: ``scenesim thesis search`` (``--evaluate``: ``thesis evaluate``)."""
+    from benchmarks.thesis.command import standalone
 
-
-def evaluate_lines(cells: Cells, reading: Reading, *, with_pesq: bool = True) -> list[str]:
-    """One reading on all 54 cells: its score and residual table (``--evaluate``)."""
-    got = full_cells(cells, reading, with_pesq=with_pesq)
-    s = score_cells(got)
-    lines = [f"Reading: {reading.label()}",
-             f"mean |dSNR-I| {s.snr_i:.2f} dB ({s.n_snr} cells), mean |dPESQ| {s.pesq:.3f} ({s.n_pesq}), "
-             f"EB trend error {s.trend:.2f} dB",
-             f"  {'table':5s} {'system':6s} {'noise':8s} {'dSNR-I':>7s} {'|dSNR-I|':>8s} {'dPESQ':>6s}"]
-    for t, sysname, noise, d, ad, dp in residual_table(got):
-        lines.append(f"  {t:5s} {sysname:6s} {noise:8s} {d:7.2f} {ad:8.2f} {dp:6.3f}")
-    return lines
+    return standalone(argv)
 
 
 if __name__ == "__main__":
