@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from benchmarks.cli.main import main
 from data_recipes.source import open_data
 
