@@ -165,3 +165,13 @@ def test_todays_robust_systems_stay_reachable_under_their_versioned_names(name):
     frozen = make(f"{name}@1")
     assert (frozen.name, frozen.version) == (name, "1")
     assert frozen.params == type(frozen).Params()  # version 1's own defaults
+
+
+def test_a_parameter_of_a_system_without_parameters_says_it_has_none():
+    from enhancers.core.base import unknown_parameter
+
+    with pytest.raises(ParameterError, match=r"x=1 is invalid: expected no parameter: passthrough has none"):
+        make("passthrough", x=1)
+    with pytest.raises(ParameterError, match=r"alpah=1 is invalid: expected a parameter of ss: one of alpha, "):
+        make("ss", alpah=1)
+    assert "one of ." not in str(unknown_parameter("x", 1, ()))

@@ -61,7 +61,7 @@ class Params:
         known = {f.name: f for f in dataclasses.fields(cls)}
         unknown = sorted(set(values) - set(known))
         if unknown:
-            raise ParameterError(unknown[0], values[unknown[0]], "one of " + ", ".join(known))
+            raise unknown_parameter(unknown[0], values[unknown[0]], known)
         converted = {}
         for key, value in values.items():
             default = known[key].default
@@ -82,9 +82,23 @@ class Params:
         out: dict[str, Any] = {}
         for key, text in values.items():
             if key not in known:
-                raise ParameterError(key, text, "one of " + ", ".join(sorted(known)))
+                raise unknown_parameter(key, text, known)
             out[key] = _parse_value(key, text, hints.get(key, str))
         return out
+
+
+def unknown_parameter(key: str, value, known, owner: str | None = None) -> ParameterError:
+    """The error for a parameter ``key`` that is not a field: the fields it could be, or that there are none.
+
+    >>> str(unknown_parameter("x", "1", ()))
+    "Parameter x='1' is invalid: expected no parameter: this enhancer has none."
+    >>> str(unknown_parameter("alpah", 0.9, ("alpha", "n_sub"), "ss"))
+    'Parameter alpah=0.9 is invalid: expected a parameter of ss: one of alpha, n_sub.'
+    """
+    who = f"a parameter of {owner}: " if owner else ""
+    if not known:
+        return ParameterError(key, value, f"no parameter: {owner or 'this enhancer'} has none")
+    return ParameterError(key, value, f"{who}one of " + ", ".join(sorted(known)))
 
 
 def _parse_value(key: str, text: str, hint) -> Any:

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
 
+from enhancers.core.base import unknown_parameter
 from scenesim.errors import ParameterError, PluginError
 
 ENTRY_POINT_GROUP = "scenesim.enhancers"
@@ -350,7 +351,7 @@ def make(name: str, **params: Any):
         known = {f.name for f in dataclasses.fields(param_cls)}
         for key in sorted(merged):
             if key not in known and key != "params":
-                raise ParameterError(key, merged[key], "one of " + ", ".join(sorted(known)))
+                raise unknown_parameter(key, merged[key], known, spec.name)
     return cls(**merged)
 
 
