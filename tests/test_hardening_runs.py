@@ -233,3 +233,16 @@ def test_a_corrupt_store_is_one_line_from_compare_and_from_load_results(tmp_path
     assert main(["bench", "compare", str(bad), str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("scenesim: error: the results store") and "\n" not in err and "Traceback" not in err
+
+
+def test_report_listen_with_an_unknown_condition_id_is_refused(tmp_path, capsys):
+    from benchmarks.cli.main import main
+    from benchmarks.store.sqlite import ResultStore
+
+    out = tmp_path / "s"
+    with ResultStore.open(out) as store:
+        store.write_rows([{"condition_id": "c1", "enhancer": "eb", "status": "ok"}])
+    assert main(["bench", "report", str(out), "--listen", "nosuchid", "--listen-count", "0"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--listen='nosuchid' is invalid" in err and "one of its 1, e.g. c1" in err and "\n" not in err
+    assert not (out / "report").exists()

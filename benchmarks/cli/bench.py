@@ -201,12 +201,28 @@ def _store_errors(out_dir):
         raise corrupt_store_error(Path(out_dir) / STORE_NAME, exc) from None
 
 
+def _check_listen_ids(out_dir, ids) -> None:
+    """Every ``--listen`` id names a condition of the store (a typo must not give a page without players)."""
+    from benchmarks.store.sqlite import ResultStore
+
+    if not ids or not (Path(out_dir) / "results.sqlite").is_file():
+        return  # no store: write_store_report says so
+    with ResultStore.open(out_dir, readonly=True) as store:
+        known = {r["condition_id"] for r in store.rows()}
+    missing = [i for i in ids if i not in known]
+    if missing:
+        some = ", ".join(sorted(known)[:3])
+        listed = f": one of its {len(known)}, e.g. {some}" if known else " (it holds none)"
+        raise ParameterError("--listen", missing[0], f"a condition id of {Path(out_dir) / 'results.sqlite'}{listed}")
+
+
 def _report(args) -> int:
     from benchmarks.report.from_store import write_store_report
     from benchmarks.report.listening import DEFAULT_LISTEN_COUNT, ListenOptions
 
     count = DEFAULT_LISTEN_COUNT if args.listen_count is None else args.listen_count
     with _store_errors(args.dir):
+        _check_listen_ids(args.dir, args.listen)
         files = write_store_report(args.dir, listen=ListenOptions(tuple(args.listen), count=count))
     for f in files:
         print(f)
