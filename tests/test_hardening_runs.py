@@ -246,3 +246,18 @@ def test_report_listen_with_an_unknown_condition_id_is_refused(tmp_path, capsys)
     err = capsys.readouterr().err.strip()
     assert "--listen='nosuchid' is invalid" in err and "one of its 1, e.g. c1" in err and "\n" not in err
     assert not (out / "report").exists()
+
+
+def test_compare_out_naming_an_existing_file_is_refused_in_one_line(tmp_path, capsys):
+    from benchmarks.cli.main import main
+    from benchmarks.store.sqlite import ResultStore
+
+    out = tmp_path / "s"
+    with ResultStore.open(out) as store:
+        store.write_rows([{"condition_id": "c1", "enhancer": "eb", "status": "ok"}])
+    afile = tmp_path / "afile"
+    afile.write_text("keep me")
+    assert main(["bench", "compare", str(out), str(out), "--out", str(afile)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"--out='{afile}' is invalid: expected a directory, but it is an existing file" in err
+    assert afile.read_text() == "keep me"

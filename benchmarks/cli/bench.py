@@ -232,6 +232,8 @@ def _report(args) -> int:
 def _compare(args) -> int:
     from benchmarks.report.compare import DEFAULT_METRICS, compare_stores
 
+    if args.out is not None:
+        prepare_out_dir("--out", args.out, create=False)  # a file there: one line naming --out
     text, files = compare_stores(args.dir_a, args.dir_b, out_dir=args.out, metrics=tuple(args.metrics or DEFAULT_METRICS), show_all=args.show_all)
     print(text)
     for f in files:
