@@ -175,3 +175,15 @@ def test_image_source_rir_holds_the_same_bounds():
             scenesim.image_source_rir(room, (1, 1, 1), [(3, 3, 1.5)], fs=16000, **kwargs)
     h = scenesim.image_source_rir(room, (1, 1, 1), [(3, 3, 1.5)], fs=16000, length_s=0.05)
     assert h.shape == (1, 800)
+
+
+@pytest.mark.parametrize(("extra", "expected"), [
+    (["--directivity", "cardioid-family", "--directivity-p", "2"],
+     r"--directivity-p=2.0 is invalid: expected values in \[0, 1\]\.$"),
+    (["--directivity-p", "0.5"], r"--directivity-p=0.5 is invalid: expected only with --directivity cardioid-family"),
+])
+def test_rir_directivity_messages_name_the_option(tmp_path, capsys, extra, expected):
+    argv = ["rir", "--dims", "5", "4", "3", "--source", "1", "1", "1", "--mic", "3", "3", "1.5",
+            "--absorption", "0.3", *extra, "--out", str(tmp_path / "o")]
+    assert main(argv) == 2
+    assert re.search(expected, capsys.readouterr().err.strip())

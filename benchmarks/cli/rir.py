@@ -26,7 +26,7 @@ RT60_WARN_REL = 0.10
 _OPTIONS = {
     "dims_m": "--dims", "absorption": "--absorption", "rt60_s": "--rt60", "source_m": "--source",
     "mics_m": "--mic", "length_s": "--length", "max_order": "--max-order", "method": "--method",
-    "spacing_m": "--spacing", "center_m": "--pair-center", "scattering": "--scattering",
+    "spacing_m": "--spacing", "center_m": "--pair-center", "scattering": "--scattering", "p": "--directivity-p",
 }
 
 FORMATS = ("npy", "wav", "both")
@@ -105,8 +105,8 @@ def _add_render_args(p) -> None:
     p.add_argument("--directivity", choices=("omni", "cardioid-family", "talker"), default="omni",
                    help="source directivity: cardioid-family (p + (1-p) cos, --directivity-p) or "
                         "talker (front/back ratio rising with frequency, per octave)")
-    p.add_argument("--directivity-p", type=float, default=0.5, metavar="P",
-                   help="cardioid-family p: 1 omni, 0.5 cardioid, 0.25 hypercardioid, 0 figure-eight")
+    p.add_argument("--directivity-p", type=float, default=None, metavar="P",
+                   help="cardioid-family p: 1 omni, 0.5 cardioid (default), 0.25 hypercardioid, 0 figure-eight")
     p.add_argument("--source-azimuth", type=float, default=0.0, metavar="DEG",
                    help="directivity axis, degrees from +x towards +y (default 0)")
     p.add_argument("--source-elevation", type=float, default=0.0, metavar="DEG",
@@ -414,8 +414,12 @@ def _directivity(args):
     from scenesim.room.directivity import Directivity
 
     kw = {"azimuth_deg": args.source_azimuth, "elevation_deg": args.source_elevation}
+    if args.directivity_p is not None and args.directivity != "cardioid-family":
+        raise ParameterError("--directivity-p", args.directivity_p, "only with --directivity cardioid-family "
+                                                                  "(it would be ignored)")
     if args.directivity == "cardioid-family":
-        return Directivity.cardioid_family(args.directivity_p, **kw)
+        with options_named(_OPTIONS):
+            return Directivity.cardioid_family(0.5 if args.directivity_p is None else args.directivity_p, **kw)
     if args.directivity == "talker":
         return Directivity.talker(**kw)
     return None

@@ -97,9 +97,9 @@ class Directivity:
         n = max(n, len(bands_hz))
         if not np.all(np.isfinite(p_arr)) or np.any((p_arr < 0) | (p_arr > 1)) \
                 or p_arr.size not in (1, n):
-            raise ParameterError("p", p, f"values in [0, 1], one or {n}")
+            raise ParameterError("p", p, "values in [0, 1]" + _count_text(n))
         if not np.all(o_arr == np.round(o_arr)) or np.any(o_arr < 0) or o_arr.size not in (1, n):
-            raise ParameterError("order", order, f"integers >= 0, one or {n}")
+            raise ParameterError("order", order, "integers >= 0" + _count_text(n))
         p_arr, o_arr = np.broadcast_to(p_arr, n), np.broadcast_to(o_arr.astype(int), n)
         width = int(o_arr.max()) + 1
         coef = np.zeros((n, width))
@@ -140,3 +140,12 @@ class Directivity:
         u = np.atleast_2d(np.asarray(directions, dtype=float))
         cos_t = (u @ self.axis) / np.linalg.norm(u, axis=1)
         return np.polynomial.polynomial.polyval(cos_t, self.coefficient_array.T).T
+
+
+def _count_text(n: int) -> str:
+    """How many values a per-band coefficient takes: one, or one per band.
+
+    >>> _count_text(1), _count_text(7)
+    ('', ': one value, or 7 (one per band)')
+    """
+    return "" if n == 1 else f": one value, or {n} (one per band)"
