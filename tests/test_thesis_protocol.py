@@ -219,3 +219,35 @@ def test_results_file_round_trip_and_lookup(tmp_path, monkeypatch):
     monkeypatch.setenv("SCENESIM_THESIS_SEARCH", str(tmp_path / "store"))
     assert find_results() == json_path
     assert isinstance(Score(1, 1, 1, 1, 1), Score) and json.loads(json_path.read_text())
+
+
+def test_report_heads_the_fit_with_its_held_out_error_from_the_results_file(tmp_path, monkeypatch):
+    """The fit's section: the held-out numbers of the results file come first (bold), the in-sample fit
+    after them unbolded, then the identifiability table; without a file it says how to produce one."""
+    from benchmarks.report.thesis_repro import repro_section
+    from benchmarks.thesis.readings import BEST
+    from benchmarks.thesis.results import write_results
+
+    azimuth, taps, window = BEST.scene_key()
+    cond = json.dumps({"far_field_method": "thesis", "azimuth_from": azimuth, "fd_taps": taps, "fd_window": window})
+    rows = [{"enhancer": "eb", "noise": "babble", "snr_in_db": 0.0, "snr_i_db": 13.0, "pesq_nb_raw_out": 2.0,
+             "rt60_s": 0.0, "speech_az_deg": 45.0, "noise_az_deg": 270.0, "noise_field": "point", "far_field": 1,
+             "spacing_m": 0.0214, "ideal_sensors": 1, "condition_json": cond}]
+    monkeypatch.delenv("SCENESIM_THESIS_SEARCH", raising=False)
+    monkeypatch.chdir(tmp_path)
+    text = "\n".join(repro_section(rows))
+    assert "no search results found" in text and "scenesim thesis search --out thesis-search" in text
+    sc = {"snr_i": 1.25, "pesq": 0.125, "trend": 0.5, "n_snr": 18, "n_pesq": 18}
+    held = {"snr_i": 4.75, "pesq": 0.375, "trend": 0.5, "n_snr": 36, "n_pesq": 36}
+    row = {"reading": {"adapt": "slow"}, "label": "the-best", "score": 1.0, "diff_lo": 0.0, "diff_hi": 0.0, "in_set": True}
+    block = {"score": "s", "rows": [row], "agreement": {"adapt": ["slow"], "osub": ["berouti", "fixed1"]},
+             "n_set": 1, "n_readings": 1}
+    write_results({"data": "built-in", "choose_split": "dev", "score_split": "test", "ident_seeds": [0, 1, 2],
+                   "held_out": [{"chosen_on": ["babble"], "scored_on": ["factory", "wind"], "label": "r",
+                                 "in_sample": sc, "held_out": held}],
+                   "fit": {"in_sample": sc, "test_all_tables": sc}, "preset": {"test_all_tables": sc},
+                   "identifiability": {"rule": "paired", "eb": block, "ss": block}}, tmp_path / "thesis-search")
+    text = "\n".join(repro_section(rows))
+    assert "| babble | factory + wind | 1.25 dB | 0.125 | **4.75 dB** | **0.375** | r |" in text
+    assert text.index("**Held-out error**") < text.index("in-sample fit") < text.index("**Identifiability.**")
+    assert "mean |ΔSNR-I| **" not in text and "They agree on: adapt = slow; not identified: osub (berouti, fixed1)" in text

@@ -4,12 +4,15 @@ finding every report's thesis section states.
 Two readings of the thesis' lost simulation details are reported apart. ``thesis-text`` takes every
 element from the thesis' text, or the plainest choice where the text is lost, and is scored against
 the tables without having been chosen by them. ``thesis-fit`` is the winner of a search over eight
-unknowns (``python -m benchmarks.thesis.search``) scored against the same tables: an in-sample fit,
-which the report says on top of its section. The search is not identifiable: on other recordings of
-the same noise types, or with another utterance, it picks a different winner whose score lies within
-a few hundredths of this one, so the fit is evidence of the search's flexibility rather than of the
-thesis' setup. What neither reading reproduces is stated from the printed tables themselves
-(:data:`UNREPRODUCED`).
+unknowns (``scenesim thesis search``) scored against the same tables: an in-sample fit, which the
+report says on top of its section. Its headline is the search's *held-out* error -- the reading chosen
+on dev material and one family of tables, scored on test material and the other family -- and its
+identifiability table (the readings the seed-to-seed spread cannot tell apart, and the unknowns they
+agree on), both read from the search's results file (:func:`benchmarks.thesis.results.find_results`:
+``$SCENESIM_THESIS_SEARCH``, next to the store, or ``./thesis-search/thesis_search.json``).  Without
+that file the section says how to produce it and gives the documented fallback text
+(:data:`EXCLUDED`, :data:`LIMITS`: an earlier search's findings).  What neither reading reproduces is
+stated from the printed tables themselves (:data:`UNREPRODUCED`).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ READING = (
     "eqs. 6.1/7.1 at the front mic"
 )
 
-#: What the search excluded and why (built-in data, 768 coarse readings; README has the command).
+#: Fallback text (no results file): what an earlier search on the built-in data excluded and why.
 EXCLUDED = (
     "Of 1152 coarse readings, 814 (built-in data; 816 on real recordings) miss the EB tables by more than "
     "6 dB on average or miss their near-flat trend by more than 3 dB. Angles from the axis: the 270° noise "
@@ -44,9 +47,10 @@ EXCLUDED = (
 )
 
 
-#: Why no reading of these unknowns reaches 2 dB / 0.2 on all 54 cells (the search's numbers).
+#: Fallback text (no results file): why no reading of an earlier search reached 2 dB / 0.2 on all 54 cells.
 LIMITS = (
-    "The 18 SS cells depend on none of the unknowns and miss by 3.0 dB and >= 0.45 PESQ on the built-in "
+    "Before the SS unknowns (over-subtraction rule, floor, power or magnitude subtraction) and the output-SNR "
+    "measurement were searched, the 18 SS cells missed by 3.0 dB and >= 0.45 PESQ on the built-in "
     "data (factory -5.9 dB: our factory noise is synthetic, not NOISEX's; 2.5 dB on real speech). The best "
     "reading of every family searched leaves the EB's mean |Δ PESQ| >= 0.22 (built-in) and >= 0.42 (real "
     "speech). Scored unchanged on the real cafe/machinery/wind recordings the reading gives 1.77 dB / 0.40, "
@@ -139,12 +143,13 @@ def _preset_of(row: dict) -> str:
     return _scene_keys().get(key, "")
 
 
-def repro_section(ok_rows: Sequence[dict]) -> list[str]:
+def repro_section(ok_rows: Sequence[dict], search_results=None) -> list[str]:
     """The sections of the thesis' own simulation, one per sweep: reading, cell-by-cell comparison.
 
     ``thesis-text`` rows are the text's reading (no fit); ``thesis-fit`` rows carry the warning that
-    their distance to the tables is a fit. Rows of another sweep with the thesis' model get a
-    generic title and no reading.
+    their distance to the tables is a fit, and the search's held-out error and identifiability from
+    ``search_results`` (a results file; default: :func:`benchmarks.thesis.results.find_results`).
+    Rows of another sweep with the thesis' model get a generic title and no reading.
     """
     rows = [r for r in ok_rows if is_repro_row(r) and T.is_thesis_condition(r)]
     by_sweep: dict[str, list[dict]] = {}
@@ -152,13 +157,13 @@ def repro_section(ok_rows: Sequence[dict]) -> list[str]:
         by_sweep.setdefault(_preset_of(r), []).append(r)
     lines: list[str] = []
     for sweep in sorted(by_sweep, key=lambda s: (s not in SECTIONS, s != "thesis-text", s)):
-        lines += _reading_section(sweep, by_sweep[sweep])
+        lines += _reading_section(sweep, by_sweep[sweep], search_results)
     if lines:
         lines += [f"**What no reading reproduces.** {UNREPRODUCED}", ""]
     return lines
 
 
-def _reading_section(sweep: str, rows: Sequence[dict]) -> list[str]:
+def _reading_section(sweep: str, rows: Sequence[dict], search_results=None) -> list[str]:
     """One sweep's section: its reading, the score against the tables and the cell table."""
     title, reading = SECTIONS.get(sweep, ("## The thesis' own simulation (another reading)", None))
     cells = _cells(rows)
@@ -169,15 +174,16 @@ def _reading_section(sweep: str, rows: Sequence[dict]) -> list[str]:
     lines = [title, ""]
     if reading is not None:
         lines += [f"Reading: {reading}.", ""]
+    found = _search_results(search_results) if fitted else None
     if fitted:
-        lines += ["**This reading was chosen by scoring against these same tables: its distance to them "
-                  "below is an in-sample fit, not evidence that the thesis used it.** Judge it by its "
-                  "held-out error (chosen on one family of tables and files, scored on the others).", ""]
+        lines += [*held_out_part(found), "**The in-sample fit below was chosen by scoring against these same "
+                  "tables: its distance to them is not evidence that the thesis used this reading.**", ""]
+    em = "" if fitted else "**"  # the fit's in-sample numbers are no headline
     lines += [
-        f"Over the {score.n_snr} cells compared: mean |ΔSNR-I| **{_fmt(score.snr_i)} dB**, mean |Δ raw PESQ out| "
-        f"**{_fmt(score.pesq, 3)}** ({score.n_pesq} cells), EB trend error {_fmt(score.trend)} dB "
-        f"(SNR-I at 25 dB minus at 0 dB, ours vs the thesis'): {verdict} the target of 2 dB / 0.2. "
-        "Δ = ours − thesis; PESQ is raw P.862 (the thesis' scale).",
+        f"Over the {score.n_snr} cells compared: mean |ΔSNR-I| {em}{_fmt(score.snr_i)} dB{em}, mean |Δ raw PESQ "
+        f"out| {em}{_fmt(score.pesq, 3)}{em} ({score.n_pesq} cells), EB trend error {_fmt(score.trend)} dB "
+        f"(SNR-I at 25 dB minus at 0 dB, ours vs the thesis'): {verdict} the target of 2 dB / 0.2"
+        f"{' in sample' if fitted else ''}. Δ = ours − thesis; PESQ is raw P.862 (the thesis' scale).",
         "",
         "| table | system | noise | SNR in | SNR-I | thesis | Δ | PESQ out | thesis | Δ |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
@@ -192,5 +198,63 @@ def _reading_section(sweep: str, rows: Sequence[dict]) -> list[str]:
                      f"{_fmt(ref.pesq_out, 3)} | {_fmt(dp, 3)} |")
     lines.append("")
     if fitted:
-        lines += [f"**Excluded by the search.** {EXCLUDED}", "", f"**Why no reading does better.** {LIMITS}", ""]
+        lines += identifiability_part(found)
+    return lines
+
+
+def _search_results(path=None):
+    """``(path, results)`` of the search's results file, or None when there is none (or it is unreadable)."""
+    from benchmarks.thesis.results import find_results, load_results
+
+    path = path or find_results()
+    if path is None:
+        return None
+    try:
+        return path, load_results(path)
+    except (OSError, ValueError):
+        return None
+
+
+_HOW = ("run `scenesim thesis search --out thesis-search` (about 10 minutes of CPU per data set) beside the store, "
+        "or point `SCENESIM_THESIS_SEARCH` at its `thesis_search.json`")
+
+
+def held_out_part(found) -> list[str]:
+    """The fit's headline: in-sample against held-out error per direction, from the results file."""
+    if found is None:
+        return ["**Held-out error: no search results found** -- " + _HOW + ". Until then the in-sample "
+                "numbers below are all there is, and they overstate the fit.", ""]
+    path, res = found
+    lines = [f"**Held-out error** (the headline; `{path}`, data {res['data']}): the reading is chosen on "
+             f"{res['choose_split']} material and one family of tables, and scored on {res['score_split']} "
+             "material and the other family.", "",
+             "| chosen on | scored on | in-sample |ΔSNR-I| | in-sample |ΔPESQ| | **held-out |ΔSNR-I|** | "
+             "**held-out |ΔPESQ|** | reading |", "| --- | --- | --- | --- | --- | --- | --- |"]
+    for h in res["held_out"]:
+        a, b = h["in_sample"], h["held_out"]
+        lines.append(f"| {' + '.join(h['chosen_on'])} | {' + '.join(h['scored_on'])} | {_fmt(a['snr_i'])} dB | "
+                     f"{_fmt(a['pesq'], 3)} | **{_fmt(b['snr_i'])} dB** | **{_fmt(b['pesq'], 3)}** | {h['label']} |")
+    fit, preset = res["fit"]["test_all_tables"], res["preset"]["test_all_tables"]
+    return [*lines, "", f"Chosen on all dev tables, the search's reading scores {_fmt(fit['snr_i'])} dB / "
+            f"{_fmt(fit['pesq'], 3)} on test material; this preset's reading {_fmt(preset['snr_i'])} dB / "
+            f"{_fmt(preset['pesq'], 3)}.", ""]
+
+
+def identifiability_part(found) -> list[str]:
+    """The identifiability tables (set members and the unknowns they agree on), or the fallback text."""
+    if found is None:
+        return [f"**Excluded by an earlier search.** {EXCLUDED}", "", f"**Why no reading did better.** {LIMITS}", ""]
+    ident = found[1]["identifiability"]
+    lines = [f"**Identifiability.** Rule: {ident['rule']}; seeds {', '.join(map(str, found[1]['ident_seeds']))}.", ""]
+    for key, name in (("eb", "EB unknowns"), ("ss", "SS unknowns and the output-SNR measurement")):
+        block = ident[key]
+        agreed = [f"{u} = {v[0]}" for u, v in block["agreement"].items() if len(v) == 1]
+        loose = [f"{u} ({', '.join(v)})" for u, v in block["agreement"].items() if len(v) > 1]
+        lines += [f"*{name}* ({block['score']}): {block['n_set']} of {block['n_readings']} readings cannot be told "
+                  f"from the best. They agree on: {', '.join(agreed) or 'nothing'}; not identified: "
+                  f"{', '.join(loose) or 'none'}.", "", "| score | Δ to best, 95 % | in set | reading |",
+                  "| --- | --- | --- | --- |"]
+        lines += [f"| {_fmt(r['score'], 3)} | [{_fmt(r['diff_lo'], 3)}, {_fmt(r['diff_hi'], 3)}] | "
+                  f"{'yes' if r['in_set'] else 'no'} | {r['label']} |" for r in block["rows"]]
+        lines.append("")
     return lines
