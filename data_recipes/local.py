@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import soundfile as sf
 
-from scenesim.audio import resample, write_audio
+from scenesim.audio import audio_rate, check_rate, resample, write_audio
 from scenesim.errors import DataError
 from scenesim.validate import check_fs
 
@@ -149,6 +149,11 @@ def check_audio_file(path: Path) -> tuple[np.ndarray | None, int, str | None]:
     """Read ``path`` and validate it; return ``(x (n_ch, n), fs, None)`` or ``(None, 0, reason)``."""
     if path.stat().st_size == 0:
         return None, 0, "empty (0 bytes)"
+    try:
+        check_rate(path, audio_rate(path))  # a 1 Hz or 100 MHz header: refused before its samples are read
+    except DataError as exc:
+        if "says its sample rate" in str(exc):  # an unreadable header is reported by the read below
+            return None, 0, str(exc).replace(f"audio file {path} says its", "header")
     try:
         data, fs = sf.read(str(path), dtype="float64", always_2d=True)
     except Exception as exc:  # soundfile raises several types for corrupt headers/data

@@ -128,7 +128,8 @@ def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
     Raises
     ------
     DataError
-        The file is missing, unreadable or has no samples (the message names it).
+        The file is missing, unreadable, has no samples, or its header's sample rate is outside the
+        range of ``--fs`` (the message names the file and the rate).
     """
     if fs is not None:
         fs = check_fs(fs)
@@ -137,6 +138,7 @@ def read_audio(path, *, fs: int | None = None) -> tuple[np.ndarray, int]:
         raise DataError(f"no such file: {path}")
     if path.is_dir():
         raise DataError(f"{path} is a directory, not an audio file")
+    check_audio_rate(path)  # before the samples are read or resampled: a 1 Hz header would ask for GiB
     try:
         data, file_fs = sf.read(str(path), dtype="float64", always_2d=True)
     except (sf.LibsndfileError, RuntimeError, OSError) as exc:

@@ -76,3 +76,21 @@ def test_unreadable_and_empty_files_raise_data_error_naming_the_file(tmp_path):
     sf.write(str(empty), np.zeros((0, 1)), 16000)
     with pytest.raises(DataError, match="empty.wav"):
         read_audio(empty)
+
+
+@pytest.mark.parametrize("rate", [1, 100_000_000])
+def test_every_reader_holds_the_header_rate_to_the_range_of_fs(tmp_path, rate):
+    """read_audio (simulate --speech, the API) refuses a 1 Hz or 100 MHz header before reading; the data
+    folder scan lists such a file as unusable with its rate (it used to hang or ask for 132 GiB)."""
+    import soundfile as sf
+
+    from data_recipes.local import check_audio_file
+    from scenesim.audio import read_audio
+    from scenesim.errors import DataError
+
+    path = tmp_path / "odd.wav"
+    sf.write(path, np.zeros(4000), rate)
+    with pytest.raises(DataError, match=rf"odd.wav says its sample rate is {rate} Hz: expected a rate in \[8000"):
+        read_audio(path, fs=16000)
+    x, fs, reason = check_audio_file(path)
+    assert x is None and reason.startswith(f"header sample rate is {rate} Hz")
