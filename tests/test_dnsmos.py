@@ -112,3 +112,65 @@ def test_sweeps_without_the_key_have_no_dnsmos(tmp_path_factory):
     assert code == 0
     with sqlite3.connect(out / "results.sqlite") as db:
         assert db.execute("SELECT COUNT(*) FROM results WHERE dnsmos_ovrl IS NOT NULL").fetchone()[0] == 0
+
+
+# -- P.808 (issue 32: dnsmos_p808 beside P.835) -----------------------------------------------
+
+
+def test_p808_equals_speechmos_run_with_librosa(signals):
+    """Outside implementation: speechmos.dnsmos.run with the real librosa (its P.808 features) to
+    1e-5; skipped where librosa is absent (the dev install has none: the pins below stand in)."""
+    librosa = pytest.importorskip("librosa", reason="librosa not installed (speechmos' P.808 oracle)")
+    from speechmos import dnsmos as sm
+
+    from benchmarks.metrics.dnsmos import dnsmos_p808, p808_features
+
+    seg = signals["noisy"][: 9 * FS]
+    seg = np.concatenate([seg, seg])[:144160]
+    theirs = sm.DNSMOS.audio_melspec(None, seg[:-160])
+    assert librosa.__version__ and p808_features(seg) == pytest.approx(theirs, abs=1e-6)
+    for name in ("clean", "noisy"):
+        assert dnsmos_p808(signals[name], FS) == pytest.approx(float(sm.run(signals[name], FS)["p808_mos"]), abs=1e-5)
+
+
+def test_p808_pinned_to_speechmos_with_librosa_0_11(signals):
+    """Pins measured with speechmos.dnsmos.run (speechmos 0.0.1.1, librosa 0.11.0, onnxruntime
+    1.32.0): clean 2.8085179, noisy 2.1919377, distorted 2.0577180; ours to 1e-5."""
+    from benchmarks.metrics.dnsmos import dnsmos_p808
+
+    installed = {p: metadata.version(p) for p in PIN_VERSIONS}
+    if installed != PIN_VERSIONS:
+        pytest.skip(f"pinned with {PIN_VERSIONS}, installed {installed}")
+    expected = {"clean": 2.8085179, "noisy": 2.1919377, "distorted": 2.0577180}
+    got = {name: dnsmos_p808(x, FS) for name, x in signals.items()}
+    assert got == pytest.approx(expected, abs=1e-5)
+
+
+def test_mel_basis_is_slaney_closed_form():
+    """Closed form: each triangle peaks at its centre mel frequency with height 2 / (f_{m+2} - f_m)
+    (Slaney's area normalisation); 1 kHz is mel 15 on Slaney's scale, the log part's step is
+    ln(6.4) / 27."""
+    from benchmarks.metrics import dnsmos as D
+
+    assert float(D._hz_to_mel(np.array(1000.0))) == pytest.approx(15.0, abs=1e-12)
+    assert float(D._hz_to_mel(np.array(6400.0))) == pytest.approx(42.0, abs=1e-12)
+    basis = D._mel_basis().astype(np.float64)
+    edges = D._mel_to_hz(np.linspace(0.0, D._hz_to_mel(np.array(8000.0)), 122))
+    freqs = np.fft.rfftfreq(321, 1 / FS)
+    heights = 2.0 / (edges[2:] - edges[:-2])
+    assert np.all(basis.max(axis=1) <= heights * (1 + 1e-6))
+    assert np.all(basis >= 0) and basis.shape == (120, freqs.size)
+
+
+def test_requested_dnsmos_without_the_extra_is_the_install_line(monkeypatch):
+    """API: score(dnsmos=True) and dnsmos_p835 raise ExtraNotInstalled (not ModuleNotFoundError)."""
+    from benchmarks.metrics import dnsmos as D
+    from benchmarks.metrics.scoring import score
+    from scenesim.errors import ExtraNotInstalled
+
+    monkeypatch.setattr(D, "installed", lambda: False)
+    x = 0.1 * np.random.default_rng(0).standard_normal(FS)
+    for call in (lambda: score(x, FS, dnsmos=True), lambda: D.dnsmos_p835(x, FS), lambda: D.dnsmos_p808(x, FS)):
+        with pytest.raises(ExtraNotInstalled, match=r'pip install "scenesim\[dnsmos\]"'):
+            call()
+    assert score(x, FS)["dnsmos_ovrl"] is None  # the default computes it only when installed

@@ -6,7 +6,7 @@ two names.  Three ways to say what pairs with what:
 
 * ``--ref FILE``: one reference for every processed file (one utterance, several outputs);
   each processed file is then a system of its own, named by its stem (its path below a
-  folder given, without extension).
+  folder given, without extension), prefixed by as many of its folders as tell two of the same stem apart.
 * ``--ref DIR``: each processed folder is a system named by the folder; its audio files are
   found recursively and each pairs with the reference of the same path relative to the
   folder, without the extension (``ss/spk1/u01.wav`` -> ``REF/spk1/u01.flac``), or else with
@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import csv
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from scenesim.errors import DataError
@@ -145,8 +145,21 @@ def pair_files(degraded: Sequence, reference=None) -> list[Pair]:
     index = _RefIndex(ref) if ref is not None and ref.is_dir() else None
     _system_folders(degraded)
     pairs = [p for arg in degraded for p in _pairs_of(arg, ref, index)]
+    if ref is not None and index is None:
+        pairs = _distinct_systems(pairs)
     _check_unique(pairs)
     return pairs
+
+
+def _distinct_systems(pairs: list[Pair]) -> list[Pair]:
+    """One reference, outputs of the same name (a/u1.wav, b/u1.wav): name each system by the
+    fewest trailing path parts that tell them apart (a/u1, b/u1)."""
+    parts = [p.degraded.resolve().with_suffix("").parts for p in pairs]
+    for k in range(1, max(map(len, parts)) + 1):
+        names = ["/".join(q[-k:]) for q in parts]
+        if len(set(names)) == len(names):
+            return pairs if k == 1 else [replace(p, system=n) for p, n in zip(pairs, names)]
+    return pairs  # the same file twice: _check_unique names it
 
 
 def _list_row(line_no: int, cells: list[str], base: Path, source: Path) -> Pair:

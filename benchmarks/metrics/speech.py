@@ -154,10 +154,12 @@ def si_sdr_db(reference, estimate) -> float:
     ref, est = _pair(reference, estimate)
     ref = ref - ref.mean()
     est = est - est.mean()
-    alpha = float(np.dot(est, ref)) / max(float(np.dot(ref, ref)), POWER_FLOOR)
+    # numpy's pairwise sums, not BLAS dot: a threaded ddot splits long sums by the thread count,
+    # so a worker process and its parent disagreed in the last bits (scenesim score --workers).
+    alpha = float(np.sum(est * ref)) / max(float(np.sum(ref * ref)), POWER_FLOOR)
     target = alpha * ref
     resid = est - target
-    return _power_db_ratio(float(np.dot(target, target)), float(np.dot(resid, resid)))
+    return _power_db_ratio(float(np.sum(target * target)), float(np.sum(resid * resid)))
 
 
 # -- perceptual metrics ------------------------------------------------------------------
