@@ -261,3 +261,27 @@ def test_compare_out_naming_an_existing_file_is_refused_in_one_line(tmp_path, ca
     err = capsys.readouterr().err.strip()
     assert f"--out='{afile}' is invalid: expected a directory, but it is an existing file" in err
     assert afile.read_text() == "keep me"
+
+
+def test_a_sweep_needing_a_missing_extra_is_refused_before_any_work(tmp_path, capsys, monkeypatch):
+    """One rule for optional extras: an enhancer behind one (peers' black boxes) or metrics = ["dnsmos"]
+    without speechmos is a one-line error naming the extra's install line, before the store exists."""
+    import importlib.util
+
+    from benchmarks.cli.main import main
+    from enhancers.core.registry import get_spec
+
+    monkeypatch.setattr(get_spec("webrtc-ns"), "not_installed", "pip install -e '.[webrtc]'")
+    assert main(["bench", "run", "peers", "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "enhancer 'webrtc-ns' is not installed: pip install -e '.[webrtc]'" in err and "\n" not in err
+    assert not (tmp_path / "p").exists()
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda n, *a: None if n == "speechmos" else real(n, *a))
+    sweep = tmp_path / "d.toml"
+    sweep.write_text('[axes]\nenhancers = ["ss"]\nnoise = ["babble"]\nsnr_db = [5]\n[fixed]\nmetrics = ["dnsmos"]\n')
+    assert main(["bench", "run", str(sweep), "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert 'the metric \'dnsmos\' needs the optional [dnsmos] extra: pip install "scenesim[dnsmos]"' in err
+    assert not (tmp_path / "d").exists()

@@ -17,7 +17,7 @@ from benchmarks.cli.checks import (
 from benchmarks.run.lock import run_lock
 from benchmarks.run.progress import slow_rir_warning
 from benchmarks.run.signals import sigterm_as_interrupt
-from scenesim.errors import ParameterError
+from scenesim.errors import ConfigError, ParameterError
 
 #: Shown where PESQ appears (bench list, README install section): licence and install needs.
 PESQ_NOTICE = (
@@ -112,6 +112,9 @@ def _run(args) -> int:
     with options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit"}):
         sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds,
                                                split=args.split)
+    missing = sweep.missing_extras()
+    if missing:  # before any work: a run without them would store empty columns
+        raise ConfigError(f"sweep {sweep.name!r} needs what this install lacks: " + "; ".join(missing))
     if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
         from data_recipes import open_data
 

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import importlib.util
 import itertools
 import json
 import math
@@ -58,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from data_recipes.splits import SPLITS
-from scenesim.errors import ConfigError, ParameterError, ScenesimError
+from scenesim.errors import ConfigError, ExtraNotInstalled, ParameterError, ScenesimError
 from scenesim.room.shoebox import RT60_METHODS
 from scenesim.scene.compose import NOISE_FIELDS, REFERENCES, SNR_MODES
 from scenesim.scene.thesis_farfield import AZIMUTH_CONVENTIONS, FD_WINDOWS
@@ -560,6 +561,27 @@ class Sweep:
             raise ParameterError("seeds", n, f"at most {MAX_CONDITIONS // max(per_seed, 1):,} for this sweep "
                                              f"({per_seed} conditions per seed, {MAX_CONDITIONS:,} in one sweep)")
         return dataclasses.replace(self, axes={**self.axes, "seed": tuple(range(n))})
+
+    def missing_extras(self) -> list[str]:
+        """One line per optional extra this sweep needs and this install lacks (empty: runnable).
+
+        An enhancer behind an extra (``peers``' black boxes) or an optional metric (``metrics =
+        ["dnsmos"]``) would otherwise run and store empty columns; ``bench run`` refuses first.
+
+        >>> load_sweep("smoke").missing_extras()
+        []
+        """
+        from enhancers.core.registry import get_spec
+
+        out = []
+        for name in self.enhancers:
+            spec = get_spec(name)
+            if spec.not_installed is not None:
+                out.append(f"enhancer {name!r} is not installed: {spec.not_installed}")
+        metrics = set().union(*(set(m) for m in self.axes.get("metrics", ((),))))
+        if "dnsmos" in metrics and not all(importlib.util.find_spec(m) for m in ("speechmos", "onnxruntime")):
+            out.append(str(ExtraNotInstalled("dnsmos", "the metric 'dnsmos'")))
+        return out
 
     @property
     def swept_axes(self) -> tuple[str, ...]:
