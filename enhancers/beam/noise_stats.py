@@ -34,6 +34,12 @@ the early estimates are scaled down by ``1 - a^l``).  The SPP, by ``config.spp``
   noise, 5 s to settle).  In noise alone ``xi -> 0`` and ``p -> 1 - q``: the noise statistics then update
   at half their rate (measured mean ``p`` in noise alone 0.54, ``tests/test_noise_stats.py``).
 
+The step also returns the noise average's normaliser ``N_vv`` per frame (``NoiseStats.n_vv``), so a
+caller can give the unfilled mass ``1 - N_vv`` to a prior (``eb-spp``'s start-up prior).  With
+``kernel=True`` and the single-channel SPP the frame loops run compiled
+(:mod:`enhancers.kernels.noise_stats`; this module's numpy loop stays the reference, equal to rounding,
+``tests/test_noise_stats_kernel.py``).
+
 Parameters (:class:`NoiseStatsConfig`): the SPP's (:class:`enhancers.single.spp.SppConfig`), ``q``, and
 the time constants of the two averages ``tau_noisy_s`` / ``tau_noise_s`` (per-frame factors
 ``a = exp(-hop_s / tau)``), defaults 1 s / 0.5 s and ``spp="single"``: the SPP and the noisy average's
@@ -61,6 +67,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from enhancers.kernels.noise_stats import weighted_cov_frames
 from enhancers.single.spp import SppConfig, SppState, spp_init, spp_step
 from scenesim.validate import check_choice, check_positive, check_range
 
@@ -214,11 +221,14 @@ class NoiseStatsState:
 
 class NoiseStats(NamedTuple):
     """What :func:`noise_stats_step` returns per frame: ``yy``, ``vv`` ``(n_frames, n_bins, 2, 2)``
-    (after the frame's update) and ``p`` ``(n_frames, n_bins)`` (the SPP that weighted it)."""
+    (after the frame's update), ``p`` ``(n_frames, n_bins)`` (the SPP that weighted it) and ``n_vv``
+    ``(n_frames, n_bins)``, the noise average's normaliser (the weight of the frames it holds, 0 at the
+    start, -> 1 once filled)."""
 
     yy: np.ndarray
     vv: np.ndarray
     p: np.ndarray
+    n_vv: np.ndarray
 
 
 def noise_stats_init(n_bins: int) -> NoiseStatsState:
@@ -236,9 +246,13 @@ def _average(r, n, a, yy):
     return r, n, r / np.maximum(n, _TINY)[..., None, None]
 
 
-def noise_stats_step(X: np.ndarray, state: NoiseStatsState,
-                     config: NoiseStatsConfig) -> tuple[NoiseStats, NoiseStatsState]:
+def noise_stats_step(X: np.ndarray, state: NoiseStatsState, config: NoiseStatsConfig, *,
+                     kernel: bool = False) -> tuple[NoiseStats, NoiseStatsState]:
     """Covariances and SPP of the frames ``X`` (``(2, n_frames, n_bins)`` complex, reference mic first).
+
+    ``kernel``: with ``spp="single"``, the compiled copies of the frame loops
+    (:mod:`enhancers.kernels.noise_stats`, equal to this numpy reference to rounding); the
+    multichannel SPP always runs here.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
@@ -254,11 +268,14 @@ def noise_stats_step(X: np.ndarray, state: NoiseStatsState,
     sc = config.spp_config
     s_state = state.spp
     if config.spp == "single":
-        P_all, _, s_state = spp_step(np.abs(Y[..., 0]) ** 2, state.spp, sc)
+        P_all, _, s_state = spp_step(np.abs(Y[..., 0]) ** 2, state.spp, sc, kernel=kernel)
+        if kernel:
+            return _single_compiled(Y, P_all, state, s_state, config)
     a_p = sc.alphas()[1]
     yy_out = np.empty((F, K, 2, 2), dtype=complex)
     vv_out = np.empty((F, K, 2, 2), dtype=complex)
     p_out = np.empty((F, K))
+    nv_out = np.empty((F, K))
     r_yy, n_yy, r_vv, n_vv, p_bar = state.r_yy, state.n_yy, state.r_vv, state.n_vv, state.p_bar
     q = config.prior_absence
     for i in range(F):
@@ -273,6 +290,17 @@ def noise_stats_step(X: np.ndarray, state: NoiseStatsState,
             p_bar = a_p * p_bar + (1.0 - a_p) * p
             p = np.where(p_bar > sc.p_cap, np.minimum(p, sc.p_cap), p)
         r_vv, n_vv, vv_out[i] = _average(r_vv, n_vv, a_v + (1.0 - a_v) * p, yyH)
-        yy_out[i], p_out[i] = Phi_yy, p
+        yy_out[i], p_out[i], nv_out[i] = Phi_yy, p, n_vv
     new = NoiseStatsState(r_yy=r_yy, n_yy=n_yy, r_vv=r_vv, n_vv=n_vv, spp=s_state, p_bar=p_bar)
-    return NoiseStats(yy=yy_out, vv=vv_out, p=p_out), new
+    return NoiseStats(yy=yy_out, vv=vv_out, p=p_out, n_vv=nv_out), new
+
+
+def _single_compiled(Y, P_all, state, s_state, config):
+    """:func:`noise_stats_step`'s averages for a given SPP by the compiled loop (state arrays copied)."""
+    a_y, a_v = config.alphas()
+    r_yy, n_yy, r_vv, n_vv = (np.array(a, dtype=c) for a, c in ((state.r_yy, complex), (state.n_yy, float),
+                                                               (state.r_vv, complex), (state.n_vv, float)))
+    yy, vv, nv = weighted_cov_frames(np.ascontiguousarray(Y), np.ascontiguousarray(P_all), r_yy, n_yy, r_vv, n_vv,
+                                 a_y, a_v)
+    new = NoiseStatsState(r_yy=r_yy, n_yy=n_yy, r_vv=r_vv, n_vv=n_vv, spp=s_state, p_bar=state.p_bar)
+    return NoiseStats(yy=yy, vv=vv, p=P_all, n_vv=nv), new

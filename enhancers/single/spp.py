@@ -50,6 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from enhancers.kernels.noise_stats import spp_frames
 from scenesim.validate import check_finite_number, check_positive, check_range
 
 __all__ = ["SppConfig", "SppState", "spp_init", "spp_posterior", "spp_step"]
@@ -133,11 +134,14 @@ def spp_posterior(snr_post, *, xi, prior_odds):
     return 1.0 / (1.0 + np.exp(np.minimum(expo, _EXP_MAX)))
 
 
-def spp_step(S: np.ndarray, state: SppState, config: SppConfig) -> tuple[np.ndarray, np.ndarray, SppState]:
+def spp_step(S: np.ndarray, state: SppState, config: SppConfig, *,
+             kernel: bool = False) -> tuple[np.ndarray, np.ndarray, SppState]:
     """SPP and noise PSD of the frames ``S`` (``(n_frames, n_bins)`` periodograms ``|Y|^2``).
 
     Returns ``(P, sigma2, state)``: ``P`` the (guarded) SPP of each frame and ``sigma2`` the noise
-    PSD after each frame's update, both ``(n_frames, n_bins)``; ``state`` a new state.
+    PSD after each frame's update, both ``(n_frames, n_bins)``; ``state`` a new state.  ``kernel``: the
+    compiled copy :func:`enhancers.kernels.noise_stats.spp_frames` (equal to rounding), else this
+    numpy reference.
 
     >>> import numpy as np
     >>> S = np.random.default_rng(0).exponential(2.0, size=(4000, 3))
@@ -149,6 +153,11 @@ def spp_step(S: np.ndarray, state: SppState, config: SppConfig) -> tuple[np.ndar
     a_n, a_p = config.alphas()
     xi = 10.0 ** (config.xi_h1_db / 10.0)
     odds = (1.0 - config.prior_h1) / config.prior_h1
+    if kernel and S.shape[0]:
+        sigma2 = (S[0] if state.sigma2 is None else state.sigma2).astype(float)  # a copy: updated in place
+        p_bar = state.p_bar.astype(float)
+        P, out = spp_frames(np.ascontiguousarray(S), sigma2, p_bar, a_n, a_p, xi, odds, float(config.p_cap))
+        return P, out, SppState(sigma2=sigma2, p_bar=p_bar)
     P = np.empty_like(S)
     out = np.empty_like(S)
     sigma2, p_bar = state.sigma2, state.p_bar
