@@ -383,7 +383,7 @@ def test_cli_rir_hybrid_talker_compare(tmp_path, capsys):
 
     out = tmp_path / "rir"
     rc = main([
-        "rir", "--dims", "5", "4", "3", "--rt60", "0.3", "--source", "1.3", "1.1", "1.5",
+        "rir", "--dims", "5", "4", "3", "--rt60", "0.3", "--rt60-method", "sabine", "--source", "1.3", "1.1", "1.5",
         "--pair-center", "3.2", "2.5", "1.4", "--out", str(out), "--directivity", "talker",
         "--source-azimuth", "30", "--method", "hybrid", "--max-order", "12",
         "--compare", "pyroomacoustics",

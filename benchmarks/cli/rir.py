@@ -19,8 +19,8 @@ from scenesim.errors import ParameterError
 from scenesim.files import write_json_atomic
 from scenesim.validate import check_physical
 
-# The default --rt60-method is only approximate; past this relative miss of the measured
-# T30 the user is told to use the calibrated method.
+# Sabine's and Eyring's formulas (opt-in --rt60-method) are approximate; past this relative miss of
+# the measured T30 the user is told to use the calibrated method (the default).
 RT60_WARN_REL = 0.10
 # Library parameter names -> the options that set them (errors name what was typed).
 _OPTIONS = {
@@ -57,8 +57,10 @@ def _add_room_args(p) -> None:
                            "(6 walls x 7 bands, wall by wall)")
     wall.add_argument("--band-rt60", nargs=7, type=float, metavar="S",
                       help="target T30 per octave 125 Hz..8 kHz (calibrated per band)")
-    p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="sabine",
-                   help="how --rt60 becomes an absorption (default sabine)")
+    p.add_argument("--rt60-method", choices=("sabine", "eyring", "calibrated"), default="calibrated",
+                   help="how --rt60 becomes an absorption: calibrated (default; the measured T30 of the RIR "
+                        "matches, as in scenesim.calibrate_room and every sweep), or Sabine's / Eyring's "
+                        "formula (fast, off by -20..+90 %% in non-cubic rooms)")
     p.add_argument("--scattering", type=float, default=None, metavar="S",
                    help="wall scattering coefficient in [0, 1) (diffuse reflections, scenesim.room.scattering); "
                         "default 0.5 with --rt60-method calibrated / --band-rt60, else 0 (specular)")
