@@ -75,16 +75,20 @@ def run_rows(sweep, out_dir, data_dir):
     return load_results(out_dir, ok_only=True)
 
 
+def per_system(df, systems):
+    """``(name, rows, jitter (n,), replay~Hagerman within AGREE_DB (n,) bool)`` of each system with rows."""
+    for name in systems:
+        g = df[df.enhancer == name]
+        if len(g):
+            j = g.speech_jitter_db.to_numpy(float)
+            yield name, g, j, np.abs(g.snr_i_db.to_numpy(float) - g.snr_i_hagerman_db.to_numpy(float)) <= AGREE_DB
+
+
 def summary_lines(df, systems) -> list[str]:
     """The three tables of the module docstring, as Markdown lines."""
     lines = [f"| system | rows | jitter <= {JITTER_DB:g} dB | worst jitter (dB) | replay~Hagerman within "
              f"{AGREE_DB:g} dB |", "| --- | ---: | ---: | ---: | ---: |"]
-    for name in systems:
-        g = df[df.enhancer == name]
-        if not len(g):
-            continue
-        j = g.speech_jitter_db.to_numpy(float)
-        agree = np.abs(g.snr_i_db.to_numpy(float) - g.snr_i_hagerman_db.to_numpy(float)) <= AGREE_DB
+    for name, g, j, agree in per_system(df, systems):
         lines.append(f"| {name} | {len(g)} | {np.mean(j <= JITTER_DB):.0%} | {np.nanmax(j):.1f} | {np.mean(agree):.0%} |")
     lines += ["", "| noise | " + " | ".join(systems) + " | mvdr - superdirective (lower 95 %) |",
               "| --- |" + " ---: |" * (len(systems) + 1)]
