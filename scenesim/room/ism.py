@@ -705,9 +705,17 @@ def highpass(h: np.ndarray, highpass_hz: float, fs: int) -> np.ndarray:
 
 def tail_rng(room, src, mics, seed, salt: int = 0) -> np.random.Generator:
     """The generator of a stochastic tail: ``seed``, or derived from the geometry when None
-    (positions in micrometres as the entropy; ``salt`` tells two tails of one RIR apart)."""
+    (positions in micrometres as the entropy; ``salt`` tells two tails of one RIR apart).
+
+    With one receiver the two end points enter in sorted order, so swapping source and receiver draws
+    the same tail and the whole RIR is reciprocal, as a room's is (the specular part is by
+    construction). With several mics the tail is drawn jointly for all of them (its inter-mic
+    coherence) and only the full geometry seeds it.
+    """
     if seed is None:
-        words = np.round(np.concatenate([room.dims_m, src, mics.ravel()]) * 1e6).astype(np.int64)
+        ends = sorted([tuple(np.asarray(src, float).tolist()), tuple(mics[0].tolist())]) if len(mics) == 1 else None
+        points = np.concatenate([*ends]) if ends else np.concatenate([src, mics.ravel()])
+        words = np.round(np.concatenate([room.dims_m, points]) * 1e6).astype(np.int64)
         seed = np.random.SeedSequence([int(w) % 2**63 for w in words] + ([salt] if salt else []))
     elif salt and not isinstance(seed, np.random.Generator):
         seed = np.random.SeedSequence([int(seed), salt]) if isinstance(seed, int) else seed
