@@ -72,7 +72,7 @@ def test_rows_summary_and_paired_comparisons_have_the_known_answers(evaluation, 
     t-interval and the paired B - A interval equal scipy.stats' on those values (1e-9)."""
     out = evaluation / "res" / "scores.csv"
     assert _run(evaluation, "--out", str(out)) == 0
-    assert "11 file(s) scored -> " in capsys.readouterr().out
+    assert "11 file(s): 11 scored, 0 failed -> " in capsys.readouterr().out
     rows = _csv(out)
     assert [(r["system"], r["utterance"]) for r in rows][:5] == [("A", f"spk/u{i}") for i in range(1, 5)] + [("B", "spk/u1")]
     for r in rows:
@@ -144,7 +144,7 @@ def test_a_failing_file_fails_its_row_and_the_batch_goes_on(evaluation, capsys):
     _write(evaluation / "A" / "spk" / "u3.wav", np.zeros(FS + 500) + 0.01)
     out = evaluation / "scores.csv"
     assert _run(evaluation, "--out", str(out)) == 1
-    assert "2 failed (see their error column)" in capsys.readouterr().out
+    assert "11 file(s): 9 scored, 2 failed (see their error column)" in capsys.readouterr().out
     rows = {(r["system"], r["utterance"]): r for r in _csv(out)}
     assert "cannot read audio file" in rows[("A", "spk/u2")]["error"] and rows[("A", "spk/u2")]["stoi"] == ""
     assert "pass --trim" in rows[("A", "spk/u3")]["error"] and rows[("A", "spk/u3")]["status"] == "failed"
@@ -197,8 +197,12 @@ def test_out_that_is_an_input_is_refused_and_the_input_kept(evaluation, capsys):
     before = target.read_bytes()
     assert _run(evaluation, "--out", str(target)) == 2
     assert f"--out={str(target)!r}" in _one_line(capsys)
-    csv_named = evaluation / "ref" / "spk" / "u1.csv"  # writes u1.summary.csv ..., never u1.wav: allowed
-    assert target.read_bytes() == before and not csv_named.exists()
+    assert target.read_bytes() == before
+    listing = evaluation / "pairs.csv"  # an input that is not audio: the list of pairs itself
+    listing.write_text("ref/spk/u1.wav,A/spk/u1.wav\n")
+    assert main(["score", "--pairs", str(listing), "--out", str(listing), "--no-dnsmos"]) == 2
+    assert f"--out={str(listing)!r} is invalid: expected a file that is not one of the inputs" in _one_line(capsys)
+    assert listing.read_text() == "ref/spk/u1.wav,A/spk/u1.wav\n"
 
 
 @pytest.mark.parametrize(

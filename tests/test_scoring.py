@@ -136,7 +136,7 @@ def test_cli_mismatched_pair_fails_its_row_with_the_fix(tmp_path, rng, capsys, m
     captured = capsys.readouterr()
     (row,) = _csv(captured.out)
     assert row["status"] == "failed" and message in row["error"] and row["stoi"] == ""
-    assert "1 failed" in captured.err
+    assert "1 file(s): 0 scored, 1 failed" in captured.err
 
 
 def test_cli_multichannel_without_channel_is_one_line_with_the_fix(tmp_path, rng, capsys):

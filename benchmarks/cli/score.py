@@ -125,14 +125,15 @@ def run(args) -> int:
                            max_lag_s=args.max_lag_ms / 1000.0)
     rows = score_pairs(pairs, options, workers=args.workers)
     failed = sum(r["status"] != "ok" for r in rows)
-    tail = f", {failed} failed (see their error column)" if failed else ""
+    counts = f"{len(rows)} file(s): {len(rows) - failed} scored, {failed} failed"
+    counts += " (see their error column)" if failed else ""
     if out is None:
         write_csv(sys.stdout, rows, COLUMNS)
-        print(f"scenesim score: {len(rows)} file(s){tail}; --out CSV also writes the per-system summary "
-              "and paired comparisons", file=sys.stderr)
+        print(f"scenesim score: {counts}; --out CSV also writes the per-system summary and paired "
+              "comparisons", file=sys.stderr)
     else:
         paths = write_evaluation(out, rows, COLUMNS, dnsmos=options.dnsmos,
                                  options={**vars(options), "workers": args.workers})
-        print(f"{len(rows)} file(s) scored{tail} -> {out} (+ {paths['summary'].name}, "
-              f"{paths['paired'].name}, {paths['versions'].name})")
+        print(f"{counts} -> {out} (+ {paths['summary'].name}, {paths['paired'].name}, "
+              f"{paths['versions'].name})")
     return 1 if failed else 0
