@@ -161,3 +161,22 @@ def test_a_scattering_room_is_reciprocal_between_source_and_receiver():
     a = scenesim.image_source_rir(room, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], fs=16000)
     b = scenesim.image_source_rir(room, (4.3, 2.6, 1.5), [(1.2, 1.1, 1.4)], fs=16000)
     np.testing.assert_allclose(b, a, atol=1e-6 * np.abs(a).max())
+
+
+def test_max_order_bounds_the_specular_part_and_scattering_zero_the_rest():
+    """As documented: in a scattering room max_order 1 keeps the scattered tail (T30 near the full RIR's);
+    with scattering 0 the same order leaves almost nothing after the first reflections."""
+    import scenesim
+    from scenesim.room.rt60 import measure_rt60
+    from scenesim.room.shoebox import ShoeBox
+
+    room = scenesim.calibrate_room((6, 4, 3), 0.6)
+    kw = dict(fs=16000, length_s=0.6)
+    full = scenesim.image_source_rir(room, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], **kw)
+    low = scenesim.image_source_rir(room, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], max_order=1, **kw)
+    t_full, t_low = (float(np.mean(measure_rt60(h, 16000, method="T30"))) for h in (full, low))
+    assert abs(t_low / t_full - 1) < 0.25
+    specular = ShoeBox(dims_m=room.dims_m, absorption=room.wall_absorption.tolist(), scattering=0.0)
+    h = scenesim.image_source_rir(specular, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], max_order=1, **kw)
+    late = slice(int(0.1 * 16000), None)  # after the first reflections (the last order-1 image: ~30 ms)
+    assert np.sum(h[0, late] ** 2) < 1e-6 * np.sum(h**2)

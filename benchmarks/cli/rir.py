@@ -91,8 +91,9 @@ def _add_render_args(p) -> None:
     """How the RIR is rendered and written, and the source's directivity."""
     p.add_argument("--fs", type=int, default=16000, help="sampling rate in Hz (default 16000)")
     p.add_argument("--max-order", type=int, default=None, metavar="N",
-                   help="L1 image order bound (default: all images within the RIR length; "
-                        "with --compare: pyroomacoustics' inverse-Sabine order)")
+                   help="L1 image order bound of the specular images (default: all within the RIR length; "
+                        "with --compare: pyroomacoustics' inverse-Sabine order); the scattered tail of a room "
+                        "with --scattering > 0 is not made of images: --scattering 0 for an order-limited RIR")
     p.add_argument("--highpass", type=float, default=20.0, metavar="HZ",
                    help="causal 2nd-order Butterworth high-pass of the RIR in Hz (default 20, as every "
                         "rendered scene; 0 = the raw image sum)")

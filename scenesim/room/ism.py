@@ -610,6 +610,11 @@ def image_source_rir(
     max_order : int, optional
         Keep images with ``|i| + |j| + |k| <= max_order`` (pyroomacoustics' L1 bound).
         None: every image arriving within the RIR length (plus the kernel's half width).
+        It bounds the *specular* images only: a room with ``scattering`` adds its scattered
+        field, a diffuse tail drawn from the room's decay rather than from images, whatever the
+        order (so ``max_order=1`` in a scattering room keeps the full T30). For an order-limited
+        RIR set the room's scattering to 0 (``ShoeBox(..., scattering=0)``, ``rir --scattering 0``);
+        ``length_s`` bounds both parts. At most :data:`MAX_ORDER`.
     length_s : float, optional
         RIR length in seconds, ``n_taps = ceil(length_s fs)``; images arriving later are
         pruned.  Default: with ``max_order``, long enough for the last image's full kernel
