@@ -175,7 +175,7 @@ def test_max_order_bounds_the_specular_part_and_scattering_zero_the_rest():
     full = scenesim.image_source_rir(room, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], **kw)
     low = scenesim.image_source_rir(room, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], max_order=1, **kw)
     t_full, t_low = (float(np.mean(measure_rt60(h, 16000, method="T30"))) for h in (full, low))
-    assert abs(t_low / t_full - 1) < 0.25
+    assert abs(t_low / t_full - 1) < 0.02  # measured 1.0002: the tail decides T30, not the images
     specular = ShoeBox(dims_m=room.dims_m, absorption=room.wall_absorption.tolist(), scattering=0.0)
     h = scenesim.image_source_rir(specular, (1.2, 1.1, 1.4), [(4.3, 2.6, 1.5)], max_order=1, **kw)
     late = slice(int(0.1 * 16000), None)  # after the first reflections (the last order-1 image: ~30 ms)
