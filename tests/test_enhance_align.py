@@ -13,6 +13,7 @@ import io
 import numpy as np
 import pytest
 import soundfile as sf
+from _wav_headers import wav_with_rate
 
 from benchmarks.cli.main import main
 from benchmarks.metrics.align import (
@@ -146,19 +147,9 @@ def test_long_records_drop_the_parameters_to_stay_readable(tmp_path):
     assert record["params_omitted"] is True and record["delay_samples"] == 9
 
 
-def _with_rate(path, rate):
-    """A float WAV whose header states ``rate`` (0 too: libsndfile will not write it)."""
-    sf.write(path, np.zeros((1600, 2)), 16000, subtype="FLOAT")
-    data = bytearray(path.read_bytes())
-    i = data.find(b"fmt ")
-    data[i + 12:i + 16] = int(rate).to_bytes(4, "little")
-    path.write_bytes(bytes(data))
-    return path
-
-
 @pytest.mark.parametrize("rate", [0, 1, 100_000_000])
 def test_enhance_refuses_a_nonsense_header_rate_before_the_work(tmp_path, capsys, rate):
-    src = _with_rate(tmp_path / "in.wav", rate)
+    src = wav_with_rate(tmp_path / "in.wav", rate, channels=2)
     out = tmp_path / "out.wav"
     assert main(["enhance", str(src), str(out), "-e", "passthrough"]) == 2
     err = capsys.readouterr().err.strip()

@@ -15,6 +15,7 @@ import json
 import numpy as np
 import pytest
 import soundfile as sf
+from _wav_headers import wav_with_rate
 from scipy import stats
 
 from benchmarks.cli.main import main
@@ -170,20 +171,11 @@ def _one_line(capsys) -> str:
     return err
 
 
-def _with_rate(path, rate):
-    sf.write(path, np.zeros(1600), 16000, subtype="FLOAT")
-    data = bytearray(path.read_bytes())
-    i = data.find(b"fmt ")
-    data[i + 12:i + 16] = int(rate).to_bytes(4, "little")
-    path.write_bytes(bytes(data))
-    return path
-
-
 @pytest.mark.parametrize("rate", [0, 1, 100_000_000])
 @pytest.mark.parametrize("role", ["deg", "ref"])
 def test_nonsense_header_rate_is_refused_before_any_work(tmp_path, rng, capsys, rate, role):
     good = _write(tmp_path / "good.wav", _speechlike(rng))
-    bad = _with_rate(tmp_path / "bad.wav", rate)
+    bad = wav_with_rate(tmp_path / "bad.wav", rate)
     args = [str(bad), "--ref", str(good)] if role == "deg" else [str(good), "--ref", str(bad)]
     out = tmp_path / "s.csv"
     assert main(["score", *args, "--no-dnsmos", "--out", str(out)]) == 2
