@@ -93,11 +93,14 @@ def test_unknown_enhancer_suggests(tmp_path, stereo_wav, capsys):
 
 
 @pytest.mark.parametrize(
-    "param, name", [("fir_taps=abc", "fir_taps"), ("nope=1", "nope"), ("fir_taps", "--param")]
+    "enhancer, param, name",
+    [("das", "fir_taps=abc", "--param fir_taps"), ("das", "nope=1", "--param nope"), ("das", "fir_taps", "--param"),
+     ("passthrough", "x=1", "--param x"), ("eb-ss", "ss.alpha=abc", "--param ss.alpha")],
 )
-def test_bad_param_is_named(tmp_path, stereo_wav, capsys, param, name):
+def test_bad_param_is_named(tmp_path, stereo_wav, capsys, enhancer, param, name):
+    """Issue 33 class 8: the message names the option as typed (--param KEY), not the bare field."""
     path, _ = stereo_wav
-    assert main(["enhance", str(path), str(tmp_path / "o.wav"), "-e", "das", "-p", param]) == 2
+    assert main(["enhance", str(path), str(tmp_path / "o.wav"), "-e", enhancer, "-p", param]) == 2
     err = capsys.readouterr().err
     assert f"Parameter {name}=" in err
 

@@ -135,8 +135,9 @@ def _check_options(args) -> str:
 def run(args) -> int:
     subtype = _check_options(args)
     cls = get(args.enhancer)  # unknown names raise with "Did you mean ...?"
-    params = cls.Params.coerce_strings(_parse_params(args.param))
-    enhancer = make(args.enhancer, **params)
+    typed = _parse_params(args.param)
+    with options_named({key: f"--param {key}" for key in typed}):
+        enhancer = make(args.enhancer, **cls.Params.coerce_strings(typed))
     tags = enhancer.tags
     notes = []
     if args.spacing_m is not None or args.c_mps is not None:
