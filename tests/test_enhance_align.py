@@ -156,3 +156,32 @@ def test_enhance_refuses_a_nonsense_header_rate_before_the_work(tmp_path, capsys
     assert err.startswith("scenesim: error:") and "\n" not in err
     assert f"{src} says its sample rate is {rate} Hz" in err and "[8000, 192000]" in err
     assert not out.exists()
+
+
+@pytest.fixture
+def toy_delay():
+    """The toy whole-sample delay (tests/_toy_enhancers.py) registered for one test."""
+    from enhancers.core.registry import register, unregister
+
+    register("toy-delay", "_toy_enhancers:Delay")
+    yield "toy-delay"
+    unregister("toy-delay")
+
+
+def test_compensated_toy_delay_returns_the_input_and_scores_as_it(tmp_path, speech, toy_delay):
+    """Toy check (closed form): a pure delay of d samples with its latency removed is the input
+    itself, sample for sample (float64 in, float32 out: equal to float32 rounding, 2^-24 relative);
+    with --keep-latency it is the input delayed by d, and score aligns it by its declared d."""
+    s, noisy = speech
+    src, ref = _wav(tmp_path / "in.wav", noisy), _wav(tmp_path / "ref.wav", s)
+    out, kept = tmp_path / "out.wav", tmp_path / "kept.wav"
+    assert main(["enhance", str(src), str(out), "-e", toy_delay, "-p", "delay=40"]) == 0
+    assert main(["enhance", str(src), str(kept), "-e", toy_delay, "-p", "delay=40", "--keep-latency"]) == 0
+    y, _ = sf.read(out)
+    y_kept, _ = sf.read(kept)
+    np.testing.assert_allclose(y, noisy, rtol=2**-24, atol=0)
+    np.testing.assert_allclose(y_kept[40:], noisy[:-40], rtol=2**-24, atol=0)
+    assert np.all(y_kept[:40] == 0)
+    rows = score_files([out, kept], ref, dnsmos=False)
+    assert [(r["lag_samples"], r["lag_source"]) for r in rows] == [(0, "declared"), (40, "declared")]
+    assert read_enhance_record(kept)["enhancer"] == "toy-delay@1" and read_enhance_record(kept)["params"] == {"delay": 40}
