@@ -359,7 +359,7 @@ def test_slower_level_floor_fires_less_in_stationary_noise():
     assert slow < 0.8 * fast and fast > 2000  # measured 6232 vs 8709 cells
 
 
-# the calibrated direction rule (issue 16, third round): cal_frontal_db with the estimate applied
+# the calibrated direction rule: cal_frontal_db with the estimate applied
 DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0}
 
 

@@ -20,7 +20,7 @@ level_frontal_db=1``; JSON lists become tuples), for both systems and the mismat
 and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
 both systems; without it, their defaults.
 
-``--direction``: the calibrated direction rule (:data:`DIRECTION`, issue 16's third round: the
+``--direction``: the calibrated direction rule (:data:`DIRECTION`, the
 forward/backward cardioid ratio of the calibrated pair per bin, no level rule) instead.
 
 ``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam.beam_pool`).
@@ -96,12 +96,12 @@ from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0
-# the best opt-in setting measured (issue 16, second round: see enhancers/beam/mic_calibration.py); the first
-# round's was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
+# the best opt-in setting measured (docs/history/2026-12-calibration-talker-blind.md); an earlier
+# one was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
 TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": True, "level_frontal_db": -1.0,
                 "beam_freeze": "level"}
 
-# the calibrated direction rule (issue 16, third round: enhancers/beam/mic_calibration.py); the best of its
+# the calibrated direction rule (enhancers/beam/mic_calibration.py); the best of its
 # thresholds measured (-2 dB: the lowest jitter; it freezes almost every cell of diffuse or incoherent noise)
 DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0,
              "ramp_over_band": True, "beam_freeze": "level"}
@@ -130,7 +130,7 @@ COMBINED = {**POOLED, "mix_ramp_cells": 0.0, "model": "hp1", "eq_bound_beta": 0.
             "level_hang_s": 0.3, "level_ahead_s": 0.15, "beam_freeze": "cardioid"}
 COMBINED_SS = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
 
-# the frame rule (issue 16, fifth round; enhancers/beam/mic_calibration.py): COMBINED with the level rule and the
+# the frame rule (enhancers/beam/mic_calibration.py): COMBINED with the level rule and the
 # cardioid rules replaced by ONE level-free decision per frame -- the forward/backward cardioid ratio over
 # 1-4 kHz above 5 dB, held 0.2 s after and 0.24 s before -- and the DAS weight learned on it, 0.24 s late
 # (mix_model="delayed"); measured in the module docstring of enhancers/beam/mic_calibration.py
@@ -142,7 +142,7 @@ FRAME = {**COMBINED, "freeze_level_db": None, "frame_q_db": 5.0, "level_hang_s":
 # beta per bin (the deeper null of one plane wave), frozen where the frame rule hears the talker at high SNR
 FRAME_LOWSNR = {**FRAME, "frame_snr_db": (6.0, 12.0), "mix_fast_cells": 2000.0, "beta_model": "bin", "mu": 0.1,
                 "beta_norm": "frame", "beam_freeze": "level"}
-# the same with beta learned late as well (issue 16, sixth round): one least-squares beta per bin on the
+# the same with beta learned late as well : one least-squares beta per bin on the
 # calibration's held weights, 0.24 s late (beta_model="delayed"; beta_fast_frames: a start-up stand-in for its
 # first 10 frames); the frame rule also judges 250 Hz-1 kHz on its own (frame_low_hz: a voiced syllable's power
 # lies there) and stops at a frame 20 dB over the noise floor (frame_level_db); the DAS weight's stand-in only
@@ -152,7 +152,7 @@ FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", 
                  "mix_fast_cells": 500.0, "mix_ramp_cells": 200.0, "cal_rear_db": 10.0, "frame_low_hz": 250.0,
                  "frame_level_db": 20.0}
 # the same with the decisions that differed between the runs on s + n and s - n made continuous or left out
-# (issue 16, seventh round): the rear rule's threshold follows the SNR share (cal_rear_db at high input SNR,
+# : the rear rule's threshold follows the SNR share (cal_rear_db at high input SNR,
 # cal_rear_low_db=6 at low: issue 12's 240 deg mismatch), the frame rule's decisions in the first 0.05 s are
 # not trusted (frame_start_s: a recording's start transient), the stand-ins hand over to the delayed estimates
 # linearly (fast_blend), the SNR share grows with the frames it has seen (frame_snr_frames=40) and takes the
@@ -162,7 +162,7 @@ FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", 
 FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, "fast_blend": True,
                 "frame_snr_frames": 40.0, "frame_snr_quiet": True, "frame_snr_quiet_ratio": True,
                 "frame_snr_low_hz": 250.0, "frame_snr_db": (8.0, 14.0)}
-# the same with the edges that still flipped between the runs graded (issue 16, eighth round): the frame rule's
+# the same with the edges that still flipped between the runs graded : the frame rule's
 # hold tapers over 0.05 s at both ends (frame_hold_taper_s: an onset heard a frame apart moved a whole noise
 # frame), the rear rule's weight ramps over 3 dB above cal_rear_db on a slower smoother (cal_rear_soft_db,
 # cal_rear_lam: the talker x noise cross term in P_F decided cells near the threshold), the SNR share's noise
@@ -172,7 +172,7 @@ FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, 
 # over 10 frames
 FRAME_TAPER = {**FRAME_SMOOTH, "frame_hold_taper_s": 0.05, "cal_rear_soft_db": 3.0, "cal_rear_lam": 0.8,
                "frame_snr_clip_db": 15.0, "mix_fast_ramp_cells": 0.0, "mix_alpha0": 0.0, "frame_snr_frames": 10.0}
-# the same with the frame rule's first 0.13 s untrusted (issue 16, ninth round): a noise field that starts with
+# the same with the frame rule's first 0.13 s untrusted : a noise field that starts with
 # the stream -- the hall's machines, rendered from t = 0 -- builds up over its first ~50 ms and its first arrivals
 # read as a frontal talker to 0.125 s; judged, that ended the DAS weight's start-up stand-in after 6 frames,
 # whose cross term with the speech recording's own background then differed between the runs for the whole file

@@ -1,13 +1,13 @@
 """Parameter sets of the registered variants of an enhancer (pure data: the registry reads them without
 importing an algorithm module).
 
-``EB_ROBUST_BLIND`` is ``eb-robust`` learning only where the talker is absent (issue 16): the frame rule -- one
+``EB_ROBUST_BLIND`` is ``eb-robust`` learning only where the talker is absent: the frame rule -- one
 level-free decision per frame from the forward/backward cardioid ratio over 250 Hz-4 kHz, held 0.2 s after and
 0.24 s before the talker with tapered edges -- on which the calibration, beta (one least-squares value per bin)
 and the DAS weight learn 0.24 s late; the rules' remaining edges graded; at low estimated input SNR the
 cardioid rules again (there the noise masks the talker).  It is ``calibration_jitter --frame-settled``
 (:data:`benchmarks.studies.calibration_jitter.FRAME_SETTLED`, where each piece and its measurement is named; the
-module docstring of :mod:`enhancers.beam.mic_calibration` has the rounds).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
+record of how the pieces were chosen is ``docs/history/2026-12-calibration-talker-blind.md``).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
 stage: the gain averaged over neighbouring bins and frames, so that ss's own gain moves less with the noise.
 
 Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` against ``eb-robust-ss``:
