@@ -1,7 +1,7 @@
 """Issues 30 / 31: the talker-blind front end's targets on a split it was not chosen on.
 
     python -m benchmarks.studies.heldout_targets [--split test] [--seeds 10] [--first-seed 0]
-        [--data-dir DIR] [--systems NAME ...] [--skip-mismatch] [--out DIR]
+        [--data-dir DIR] [--systems NAME ...] [--set NAME.KEY=JSON ...] [--skip-mismatch] [--out DIR]
 
 Runs the ``phone`` preset's conditions at input SNR >= 15 dB (15, 20, 25 dB; every noise; seeds
 ``S .. S + N - 1`` of split ``--split``) through the project's runner (one worker) for the front ends
@@ -17,6 +17,9 @@ Runs the ``phone`` preset's conditions at input SNR >= 15 dB (15, 20, 25 dB; eve
    for the ``-ss`` chain also >= -0.5 dB) and in raw PESQ (``pesq_nb_out``; ``-ss`` chain: >= -0.05);
 3. issue 12's mismatch loss (:func:`benchmarks.studies.robust_eb.snr_improvements`: a 1 dB / 5 deg rear
    mic against ideal mics, 135 / 240 deg babble, diffuse babble, wind; target loss <= 2 dB).
+
+``--set NAME.KEY=JSON``: a parameter of one system for this run (e.g. a tuned parameter set's values;
+table 3 uses them too).
 """
 
 from __future__ import annotations
@@ -29,7 +32,14 @@ import numpy as np
 
 from benchmarks.report.compare import paired_ci
 from benchmarks.run.sweep import load_sweep
-from benchmarks.studies.noise_stats import AGREE_DB, JITTER_DB, SNRS, per_system, run_rows
+from benchmarks.studies.noise_stats import (
+    AGREE_DB,
+    JITTER_DB,
+    SNRS,
+    parse_sets,
+    per_system,
+    run_rows,
+)
 from benchmarks.studies.robust_eb import snr_improvements
 
 FRONT = ("eb-spp", "eb-robust-blind", "mvdr")
@@ -40,10 +50,11 @@ WORST_DB, AGREE_SHARE, JITTER_SHARE = -20.0, 0.95, 0.98
 MISMATCH_SYSTEMS, LOSS_DB = ("eb-spp", BASE), 2.0
 
 
-def targets_sweep(*, split: str, seeds: int, first_seed: int, systems):
+def targets_sweep(*, split: str, seeds: int, first_seed: int, systems, sets=None):
     """The ``phone`` sweep on ``split`` restricted to :data:`SNRS`, ``systems`` and seeds ``first_seed ..``."""
     sweep = load_sweep("phone").with_split(split).with_seeds(seeds)
-    sweep = dataclasses.replace(sweep, enhancers=tuple(systems), axes={**sweep.axes, "snr_db": SNRS})
+    sweep = dataclasses.replace(sweep, enhancers=tuple(systems), axes={**sweep.axes, "snr_db": SNRS},
+                                enhancer_params=sets or {})
     return sweep.with_seed(first_seed) if first_seed else sweep
 
 
@@ -90,9 +101,10 @@ def paired_lines(df, systems) -> list[str]:
     return lines
 
 
-def mismatch_lines(names=MISMATCH_SYSTEMS, *, seconds: float = 20.0, settle_s: float = 8.0) -> list[str]:
+def mismatch_lines(names=MISMATCH_SYSTEMS, *, seconds: float = 20.0, settle_s: float = 8.0,
+                   sets=None) -> list[str]:
     """Table 3: SNR-I with ideal and 1 dB / 5 deg mismatched mics and the loss (target <= 2 dB)."""
-    rows = snr_improvements(names, seconds=seconds, settle_s=settle_s)
+    rows = snr_improvements(names, seconds=seconds, settle_s=settle_s, params=sets)
     lines = ["| noise | system | ideal SNR-I | 1 dB / 5 deg SNR-I | loss (dB) | target |",
              "| --- | --- | ---: | ---: | ---: | --- |"]
     by = {(r[0], r[1]): r[2:] for r in rows}
@@ -111,20 +123,26 @@ def main(argv=None) -> int:
     ap.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
     ap.add_argument("--data-dir", default=None, help="speech/noise directory (default: built-in data)")
     ap.add_argument("--systems", nargs="*", default=list(SYSTEMS), help="systems (default: those above)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="NAME.KEY=JSON", help="a system's parameter")
     ap.add_argument("--skip-mismatch", action="store_true", help="leave out table 3")
     ap.add_argument("--out", default=None, help="store directory to keep (default: a temporary one)")
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.first_seed < 0:
         ap.error(f"--seeds {args.seeds} / --first-seed {args.first_seed}: need seeds >= 1 and first seed >= 0")
-    sweep = targets_sweep(split=args.split, seeds=args.seeds, first_seed=args.first_seed, systems=args.systems)
+    try:
+        sets = parse_sets(args.set)
+    except ValueError as e:
+        ap.error(str(e))
+    sweep = targets_sweep(split=args.split, seeds=args.seeds, first_seed=args.first_seed, systems=args.systems,
+                          sets=sets)
     with tempfile.TemporaryDirectory(prefix="heldout-") as tmp:
         df = run_rows(sweep, args.out or tmp, args.data_dir)
     print(f"phone at {', '.join(f'{s:g}' for s in SNRS)} dB, split {args.split}, seeds {args.first_seed}.."
-          f"{args.first_seed + args.seeds - 1}, data {args.data_dir or 'built-in'}\n")
+          f"{args.first_seed + args.seeds - 1}, data {args.data_dir or 'built-in'}, settings {sets}\n")
     print("\n".join(jitter_lines(df, args.systems)) + "\n")
     print("\n".join(paired_lines(df, args.systems)))
     if not args.skip_mismatch:
-        print("\n" + "\n".join(mismatch_lines()))
+        print("\n" + "\n".join(mismatch_lines(sets=sets)))
     return 0
 
 
