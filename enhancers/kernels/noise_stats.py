@@ -11,9 +11,10 @@ Why compiled: the reference loops over frames with ~10 small numpy calls each (~
 ``eb-spp``'s batch time; here each frame is a few hundred flops.  The arithmetic is the reference's
 operation for operation (same order of products and sums), so the two agree to rounding
 (``tests/test_noise_stats_kernel.py``: relative 1e-12).  Arrays in, arrays out, state updated in place;
-the algorithms' configurations stay in their modules.  First call compiles (``cache=True`` keeps the
-machine code under ``__pycache__``): measured ~1.5 s cold, ~0.1 s from the cache
-(``python -m benchmarks.perf.enhancer_rtf --spp-kernel``).
+the algorithms' configurations stay in their modules.  The first call compiles (``cache=True`` keeps the
+machine code under ``__pycache__``): 1.4 s measured for the first compile; a new process pays 2.2 s for
+its first call, imports of numpy, numba and the stage included (``python -m benchmarks.perf.enhancer_rtf
+--ratio eb-spp eb-robust@1``, on the shared 2-core machine).
 """
 
 from __future__ import annotations
