@@ -228,8 +228,8 @@ def held_out_part(found) -> list[str]:
     lines = [f"**Held-out error** (the headline; `{path}`, data {res['data']}): the reading is chosen on "
              f"{res['choose_split']} material and one family of tables, and scored on {res['score_split']} "
              "material and the other family.", "",
-             "| chosen on | scored on | in-sample |ΔSNR-I| | in-sample |ΔPESQ| | **held-out |ΔSNR-I|** | "
-             "**held-out |ΔPESQ|** | reading |", "| --- | --- | --- | --- | --- | --- | --- |"]
+             "| chosen on | scored on | in-sample \\|ΔSNR-I\\| | in-sample \\|ΔPESQ\\| | **held-out \\|ΔSNR-I\\|** | "
+             "**held-out \\|ΔPESQ\\|** | reading |", "| --- | --- | --- | --- | --- | --- | --- |"]
     for h in res["held_out"]:
         a, b = h["in_sample"], h["held_out"]
         lines.append(f"| {' + '.join(h['chosen_on'])} | {' + '.join(h['scored_on'])} | {_fmt(a['snr_i'])} dB | "
