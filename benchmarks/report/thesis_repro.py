@@ -113,10 +113,13 @@ UNREPRODUCED = (
     "although both systems receive the same front-mic mixture: the SS experiment's input was a different "
     "signal (another utterance or alignment, or an SNR set at another point of the chain). (2) SS lowers "
     "the SNR after the EB at high input SNR (EB-SS minus EB: factory -0.2 dB at 20 dB and -3.9 dB at 25 dB, "
-    "wind 0.0 dB at 25 dB): an output SNR measured as s / (y - s) counts SS's speech distortion as noise "
-    "and saturates, which replay (the same operation on s and n apart) does not. (3) The EB gains only "
-    "0.28-0.52 PESQ with 12.6-20.5 dB SNR-I: consistent with an unequalised talker direction (the talker at "
-    "45 deg is coloured by the differential response) and with PESQ's saturation near 3.5-4."
+    "wind 0.0 dB at 25 dB). Replay (the same operation on s and n apart) never does (+3.1 to +3.9 dB at "
+    "factory 25 dB); an output SNR measured as s / (y - s), which counts the speech's distortion as noise, "
+    "does (-1.2 dB built-in, -3.2 dB on real recordings), but the same measurement puts every EB cell "
+    "17.7-20.9 dB off the tables (`scenesim thesis search`): no single measurement explains both, so the "
+    "tables' systems were likely measured in different ways. (3) The EB gains only 0.28-0.52 PESQ with "
+    "12.6-20.5 dB SNR-I: consistent with an unequalised talker direction (the talker at 45 deg is coloured "
+    "by the differential response) and with PESQ's saturation near 3.5-4."
 )
 
 #: Sweep name -> (section title, reading) of the thesis' own simulation.
