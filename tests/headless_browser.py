@@ -240,3 +240,74 @@ def inspect_page(url: str, *, binary: str, media_timeout_s: float = 20.0) -> Pag
             links=value["links"],
             screenshot_png=base64.b64decode(shot["data"]),
         )
+
+
+class BrowserPage:
+    """One tab of a :class:`DevToolsPipe`, driven as a user would: real mouse clicks and typing
+    (``Input.dispatchMouseEvent`` / ``Input.insertText`` / ``Input.dispatchKeyEvent``), waits on
+    page state through ``Runtime.evaluate``.  Used by tests/test_listen_browser.py."""
+
+    #: DevTools key events of the keys the tests press (``windowsVirtualKeyCode`` as Chromium expects).
+    KEYS = {"End": 35, "Home": 36, "Tab": 9, "Enter": 13}
+
+    def __init__(self, browser: DevToolsPipe, url: str):
+        self.browser = browser
+        self.target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        self.session = browser.send("Target.attachToTarget", {"targetId": self.target, "flatten": True})["sessionId"]
+        for domain in ("Runtime", "Page"):
+            browser.send(f"{domain}.enable", session=self.session)
+        browser.events.clear()
+        browser.send("Page.navigate", {"url": url}, session=self.session)
+        browser.wait_event("Page.loadEventFired")
+
+    def evaluate(self, expression: str, *, timeout_s: float = 30.0):
+        """The value of ``expression`` in the page (promises awaited); RuntimeError on an exception."""
+        reply = self.browser.send("Runtime.evaluate", {"expression": expression, "awaitPromise": True,
+                                                       "returnByValue": True}, session=self.session,
+                                  timeout_s=timeout_s)  # fmt: skip
+        if "exceptionDetails" in reply:
+            raise RuntimeError(f"{expression!r} failed: {reply['exceptionDetails']}")
+        return reply["result"].get("value")
+
+    def wait_for(self, expression: str, *, timeout_s: float = 20.0):
+        """Poll ``expression`` until it is truthy; its value.  TimeoutError naming it otherwise."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            value = self.evaluate(expression)
+            if value:
+                return value
+            time.sleep(0.05)
+        raise TimeoutError(f"page never satisfied {expression!r}")
+
+    def click(self, selector: str) -> None:
+        """A left click at the centre of the first element matching ``selector`` (scrolled into view)."""
+        box = self.wait_for(
+            f"(() => {{ const e = document.querySelector({json.dumps(selector)}); if (!e) return null;"
+            " e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect();"
+            " return {x: r.left + r.width / 2, y: r.top + r.height / 2}; })()"
+        )
+        for kind in ("mousePressed", "mouseReleased"):
+            self.browser.send("Input.dispatchMouseEvent", {"type": kind, "x": box["x"], "y": box["y"],
+                                                           "button": "left", "clickCount": 1},
+                              session=self.session)  # fmt: skip
+
+    def type_text(self, selector: str, text: str) -> None:
+        """Click into ``selector``, select what it holds and type ``text`` over it."""
+        self.click(selector)
+        self.evaluate(f"document.querySelector({json.dumps(selector)}).select()")
+        self.browser.send("Input.insertText", {"text": text}, session=self.session)
+
+    def press(self, key: str) -> None:
+        """Press and release ``key`` (a name of :data:`KEYS`) in the focused element."""
+        code = self.KEYS[key]
+        for kind in ("rawKeyDown", "keyUp"):
+            self.browser.send("Input.dispatchKeyEvent", {"type": kind, "key": key, "code": key,
+                                                         "windowsVirtualKeyCode": code},
+                              session=self.session)  # fmt: skip
+
+    def close(self) -> None:
+        """Close the tab (as a listener closing it)."""
+        self.browser.send("Target.closeTarget", {"targetId": self.target})
+
+    def console_errors(self) -> list[str]:
+        return _console_errors(self.browser.events)

@@ -33,7 +33,7 @@ from benchmarks.cli.checks import CREATED, remove_created_dirs  # noqa: E402
 from benchmarks.cli.console import cli_warnings  # noqa: E402
 from scenesim.errors import ScenesimError  # noqa: E402
 
-_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin", "tune", "thesis")
+_COMMANDS = ("bench", "simulate", "enhance", "score", "data", "rir", "plugin", "tune", "thesis", "listen")
 
 
 def _version() -> str:

@@ -173,6 +173,24 @@ RUN_COLUMNS: tuple[tuple[str, str], ...] = (
     ("n_errors", "INTEGER"),
 )
 
+#: Table ``ratings``: one listener's rating of one clip on one scale (``scenesim listen``), written as
+#: it is given.  ``system`` is an enhancer name or a hidden anchor (``reference``, ``mixture``,
+#: ``anchor-lp3.5k``); ``scale`` is ``sig``/``bak``/``ovrl`` (ITU-T P.835, 1-5) or ``mushra`` (0-100).
+RATING_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("listener", "TEXT NOT NULL"),
+    ("method", "TEXT NOT NULL"),
+    ("condition_id", "TEXT NOT NULL"),
+    ("system", "TEXT NOT NULL"),
+    ("scale", "TEXT NOT NULL"),
+    ("rating", "REAL NOT NULL"),
+    ("trial", "INTEGER"),
+    ("session_seed", "INTEGER"),
+    ("rated_at", "TEXT"),
+)
+#: Layout version of ``ratings`` (``meta`` key ``ratings_schema``): a store written by a newer
+#: layout is refused rather than misread.
+RATINGS_SCHEMA_VERSION = 1
+
 VERSIONED_PACKAGES = ("scenesim", "numpy", "scipy", "pesq", "pystoi", "pyroomacoustics")
 
 
@@ -253,6 +271,23 @@ class ResultStore:
                     self._db.execute(f"ALTER TABLE results ADD COLUMN {name} {typ}")
             if "split" not in have:  # rows from before splits drew from every file and seed
                 self._db.execute("UPDATE results SET split = 'all'")
+            self._create_ratings()
+
+    def _create_ratings(self) -> None:
+        """Table ``ratings`` (inside :meth:`_create`'s transaction), guarded by its layout version."""
+        row = self._db.execute("SELECT value FROM meta WHERE key = 'ratings_schema'").fetchone()
+        if row is not None and int(row[0]) > RATINGS_SCHEMA_VERSION:
+            raise DataError(
+                f"the ratings in {self.path} have layout version {row[0]}, newer than this scenesim "
+                f"reads ({RATINGS_SCHEMA_VERSION}); upgrade scenesim to add or read ratings"
+            )
+        cols = ",\n  ".join(f"{n} {t}" for n, t in RATING_COLUMNS)
+        self._db.execute(
+            f"CREATE TABLE IF NOT EXISTS ratings (\n  {cols},\n  UNIQUE(listener, condition_id, system, scale)\n)"
+        )
+        self._db.execute(
+            "INSERT OR IGNORE INTO meta (key, value) VALUES ('ratings_schema', ?)", (str(RATINGS_SCHEMA_VERSION),)
+        )
 
     @property
     def journal_mode(self) -> str:
@@ -286,6 +321,20 @@ class ResultStore:
         with self._db:
             self._db.executemany(sql, values)
         return len(values)
+
+    def write_rating(self, rating: Mapping[str, Any]) -> None:
+        """Insert or replace one rating (keys of :data:`RATING_COLUMNS`; ``rated_at`` defaults
+        to now) in its own transaction, so a rating is kept the moment it is given."""
+        names = [n for n, _ in RATING_COLUMNS]
+        values = tuple(_sql_value(rating.get(n, utc_now() if n == "rated_at" else None)) for n in names)
+        keep = ("listener", "condition_id", "system", "scale")
+        updates = ", ".join(f"{n}=excluded.{n}" for n in names if n not in keep)
+        with store_errors(self.path), self._db:
+            self._db.execute(
+                f"INSERT INTO ratings ({', '.join(names)}) VALUES ({', '.join('?' for _ in names)}) "
+                f"ON CONFLICT(listener, condition_id, system, scale) DO UPDATE SET {updates}",
+                values,
+            )
 
     def start_run(
         self,
@@ -389,6 +438,18 @@ class ResultStore:
     def count(self) -> int:
         with store_errors(self.path):
             return self._db.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+
+    def ratings(self, listener: str | None = None) -> list[dict[str, Any]]:
+        """The listening-test ratings (of one ``listener``, or all), in the order given; a store
+        from before the ratings table has none."""
+        sql = "SELECT * FROM ratings" + (" WHERE listener = ?" if listener is not None else "") + " ORDER BY rowid"
+        try:
+            with store_errors(self.path):
+                return [dict(r) for r in self._db.execute(sql, () if listener is None else (listener,))]
+        except DataError:
+            if self._db.execute("SELECT 1 FROM sqlite_master WHERE name = 'ratings'").fetchone() is None:
+                return []
+            raise
 
     def runs(self) -> list[dict[str, Any]]:
         with store_errors(self.path):
