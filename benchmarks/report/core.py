@@ -43,6 +43,7 @@ from benchmarks.report import thesis_repro as report_thesis_repro
 from benchmarks.report import tradeoff as report_tradeoff
 from benchmarks.report.html import slug, write_index
 from benchmarks.report.listening import ListenOptions
+from benchmarks.report.ratings import ratings_section
 from benchmarks.report.splits import captioned, header_line, split_label
 from benchmarks.report.tables import (
     CONDITION_KEYS,
@@ -487,6 +488,7 @@ SECTIONS: list[Section] = [
     lambda c: report_measures.measures_section(c.ok, c.report_dir), _mismatch_part, _reverb_part, lambda c: _thesis_part(c.ok, c.fields, c.report_dir),
     lambda c: _sweeps_part(c.generic, c.fields, c.report_dir), _flags_part,
     lambda c: _conditions_part(c.ok, c.fields, c.report_dir), lambda c: _failures_part(c.all_rows, c.report_dir),
+    ratings_section,
     _sources_part,
 ]  # fmt: skip
 
