@@ -163,12 +163,13 @@ def test_mushra_session_closed_halfway_resumes_and_stores_what_was_given(sweep, 
         page = BrowserPage(browser, srv.url("ana"))
         page.wait_for("document.body.dataset.view === 'training'")
         page.click("#start")
-        assert _mushra_page(page, plan, rng, given, stop_after=3)
+        assert not _mushra_page(page, plan, rng, given)  # the first page complete
+        assert _mushra_page(page, plan, rng, given, stop_after=3)  # half of the second, then closed
         page.close()
         page = BrowserPage(browser, srv.url("ana"))
-        assert page.wait_for("document.body.dataset.view") == "trial" and page.evaluate("document.body.dataset.trial") == "0"
+        assert page.wait_for("document.body.dataset.view") == "trial" and page.evaluate("document.body.dataset.trial") == "1"
         boxes = page.evaluate("[...document.querySelectorAll('.score')].map(e => e.value)")
-        assert boxes[:3] == [str(given[(plan[0].condition_id, s, "mushra")]) for s in plan[0].systems[:3]]
+        assert boxes[:3] == [str(given[(plan[1].condition_id, s, "mushra")]) for s in plan[1].systems[:3]]
         assert boxes[3:] == ["", "", ""]
         while page.wait_for("document.body.dataset.view") != "done":
             _mushra_page(page, plan, rng, given)

@@ -200,6 +200,13 @@ class _Server(ThreadingHTTPServer):
     daemon_threads = True
     test: ListeningTest
 
+    def handle_error(self, request, client_address):
+        import sys
+
+        if not isinstance(sys.exc_info()[1], (BrokenPipeError, ConnectionResetError)):
+            super().handle_error(request, client_address)
+        # else: the page dropped a clip it no longer wants (another clip played, tab closed): no traceback
+
 
 def make_server(test: ListeningTest, *, host: str = "127.0.0.1", port: int = 0) -> _Server:
     """A bound (not yet serving) server for ``test``; ``port`` 0 takes a free port.
