@@ -10,8 +10,8 @@ import math
 
 import pytest
 
-from benchmarks.studies.calibration_jitter import measure_condition, swap_jitter
 from benchmarks.run.sweep import load_sweep
+from benchmarks.studies.calibration_jitter import measure_condition, swap_jitter
 
 
 @pytest.fixture(scope="module")
@@ -65,24 +65,29 @@ def test_ss_parameters_reach_the_chains_ss_stage_and_ss_itself():
     assert _make("ss", False).params == make("ss").params
 
 
-def test_registered_blind_systems_are_the_settled_setting():
-    """``eb-robust-blind`` and ``eb-robust-blind-ss`` (the registry's names) are what ``--frame-settled``
-    measures: the same parameters on every stage, and the same output as the script's chain on a mixture
-    (exactly: one computation).  Control: ``eb-robust-ss``'s output differs."""
+def test_blind_mode_is_the_registered_blind_system():
+    """``--blind`` measures ``eb-robust-blind`` / ``eb-robust-blind-ss`` (the registry's names): the same parameters
+    on every stage, ``--set`` / ``--ss`` winning over them, and the same output as the script's chain on a
+    mixture (exactly: one computation).  Control: ``eb-robust-ss``'s output differs."""
+    import argparse
+
     import numpy as np
 
-    from benchmarks.studies.calibration_jitter import COMBINED_SS, FRAME_SETTLED, _make
+    from benchmarks.studies.calibration_jitter import TALKER_BLIND_SS, _make, _params, mode_params
     from enhancers.core.registry import make
 
-    measured = _make("eb-robust-ss", False, FRAME_SETTLED, COMBINED_SS)
+    over, ss = mode_params(argparse.Namespace(blind=True, set=[], ss=[]))
+    measured = _make("eb-robust-ss", True, over, ss)
     named = make("eb-robust-blind-ss")
-    fields = named.params.eb.to_dict()
-    assert fields == make("eb-robust-blind").params.to_dict() == make("eb-robust", **FRAME_SETTLED).params.to_dict()
-    assert named.params.ss == measured.params.ss and fields == measured.params.eb.to_dict()
+    assert named.params.eb == make("eb-robust-blind").params and named.params.eb.to_dict() == \
+        measured.params.eb.to_dict() and named.params.ss == measured.params.ss
     x = np.random.default_rng(3).standard_normal((2, 12000))
     y = named.process(x, 16000).output
     np.testing.assert_array_equal(y, measured.process(x, 16000).output)
     assert np.abs(y - make("eb-robust-ss").process(x, 16000).output).max() > 1e-3
+    over, ss = mode_params(argparse.Namespace(blind=True, set=["frame_q_db=4"], ss=["gain_bins=1"]))
+    assert _params(True, over)["frame_q_db"] == 4 and ss == {**TALKER_BLIND_SS, "gain_bins": 1}
+    assert mode_params(argparse.Namespace(blind=False, set=["mu=0.02"], ss=[])) == ({"mu": 0.02}, {})
 
 
 def test_first_seed_picks_seeds_past_the_presets_own(monkeypatch):
@@ -97,93 +102,6 @@ def test_first_seed_picks_seeds_past_the_presets_own(monkeypatch):
     seen.clear()
     cj.phone_rows(None, seeds=5, snrs=[25.0], noises=["wind"])
     assert seen == [c for c in load_sweep("phone").conditions() if c.noise == "wind" and c.snr_db == 25.0]
-
-
-def test_combined_setting_is_every_piece_under_the_explicit_values():
-    """``--combined``: :data:`COMBINED` for ``eb-robust`` and :data:`COMBINED_SS` for the ``ss`` stage, with
-    ``--set`` / ``--ss`` winning; without it only the explicit values."""
-    import argparse
-
-    from benchmarks.studies.calibration_jitter import COMBINED, COMBINED_SS, mode_params
-
-    def args(**kw):
-        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False, frame_taper=False,
-                    frame_settled=False)
-        return argparse.Namespace(**{**base, **kw})
-
-    over, ss = mode_params(args(combined=True, set=["mix_alpha0=0.5", "mix_bands_hz=[500, 2000]"], ss=["gain_bins=1"]))
-    assert over == {**COMBINED, "mix_alpha0": 0.5, "mix_bands_hz": (500, 2000)}
-    assert ss == {**COMBINED_SS, "gain_bins": 1}
-    assert mode_params(args(set=["mu=0.02"])) == ({"mu": 0.02}, {})
-    from enhancers.core.registry import make
-
-    make("eb-robust", **COMBINED)  # every field exists and is valid
-    make("ss", **COMBINED_SS)
-
-
-def test_frame_settings_are_combined_with_the_frame_rule():
-    """``--frame`` / ``--frame-lowsnr`` / ``--frame-delayed`` / ``--frame-smooth``: :data:`FRAME` (:data:`COMBINED`
-    with the frame rule and the delayed DAS weight), :data:`FRAME_LOWSNR`, :data:`FRAME_DELAYED` (that with beta
-    learned late: only the beta, freeze and stand-in fields change, the rest is added) or :data:`FRAME_SMOOTH`
-    (that with fields added and the SNR share's range moved) or :data:`FRAME_TAPER` (``--frame-taper``: that with
-    the graded edges added and three start-up fields changed) or :data:`FRAME_SETTLED` (``--frame-settled``: that
-    with the rule's first 0.13 s untrusted) for ``eb-robust``, :data:`COMBINED_SS` for the
-    ``ss`` stage, ``--set`` winning; all valid ``eb-robust`` parameter sets."""
-    import argparse
-
-    from benchmarks.studies.calibration_jitter import (
-        COMBINED,
-        COMBINED_SS,
-        FRAME,
-        FRAME_DELAYED,
-        FRAME_LOWSNR,
-        FRAME_SETTLED,
-        FRAME_SMOOTH,
-        FRAME_TAPER,
-        mode_params,
-    )
-    from enhancers.core.registry import make
-
-    def args(**kw):
-        base = dict(set=[], ss=[], direction=False, pooled=False, combined=False, frame=False, frame_lowsnr=False,
-                    frame_delayed=False, frame_smooth=False, frame_taper=False,
-                    frame_settled=False)
-        return argparse.Namespace(**{**base, **kw})
-
-    over, ss = mode_params(args(frame=True, set=["frame_q_db=4"]))
-    assert over == {**FRAME, "frame_q_db": 4} and ss == COMBINED_SS
-    assert FRAME["frame_q_db"] == 5.0 and FRAME["mix_model"] == "delayed" and FRAME["freeze_level_db"] is None
-    assert {k: v for k, v in FRAME.items() if k in COMBINED and k not in ("freeze_level_db", "level_hang_s",
-                                                                             "level_ahead_s", "beam_freeze")} == \
-        {k: v for k, v in COMBINED.items() if k not in ("freeze_level_db", "level_hang_s", "level_ahead_s", "beam_freeze")}
-    assert mode_params(args(frame_lowsnr=True))[0] == FRAME_LOWSNR
-    over, ss = mode_params(args(frame_delayed=True))
-    assert over == FRAME_DELAYED and ss == COMBINED_SS
-    assert {k: v for k, v in FRAME_DELAYED.items() if k in FRAME_LOWSNR and k not in (
-        "beta_model", "beam_freeze", "mix_fast_cells", "mix_ramp_cells")} == {k: v for k, v in FRAME_LOWSNR.items()
-                                                                              if k not in ("beta_model", "beam_freeze",
-                                                                                           "mix_fast_cells", "mix_ramp_cells")}
-    over, ss = mode_params(args(frame_smooth=True, set=["frame_start_s=0.1"]))
-    assert over == {**FRAME_SMOOTH, "frame_start_s": 0.1} and ss == COMBINED_SS
-    assert {k: v for k, v in FRAME_SMOOTH.items() if k in FRAME_DELAYED and k != "frame_snr_db"} == \
-        {k: v for k, v in FRAME_DELAYED.items() if k != "frame_snr_db"}  # adds fields, moves the share's range
-    over, ss = mode_params(args(frame_taper=True, frame_smooth=True))  # the newer setting wins
-    assert over == FRAME_TAPER and ss == COMBINED_SS
-    changed = ("mix_fast_ramp_cells", "mix_alpha0", "frame_snr_frames")
-    assert {k: v for k, v in FRAME_TAPER.items() if k in FRAME_SMOOTH and k not in changed} == \
-        {k: v for k, v in FRAME_SMOOTH.items() if k not in changed}
-    over, ss = mode_params(args(frame_settled=True, frame_taper=True))
-    assert over == FRAME_SETTLED and ss == COMBINED_SS
-    assert FRAME_SETTLED == {**FRAME_TAPER, "frame_start_s": 0.13} and FRAME_TAPER["frame_start_s"] == 0.05
-    from enhancers.beam.presets import (  # the registered eb-robust-blind(-ss)
-        EB_ROBUST_BLIND,
-        EB_ROBUST_BLIND_SS,
-    )
-
-    assert EB_ROBUST_BLIND == FRAME_SETTLED and EB_ROBUST_BLIND_SS == COMBINED_SS
-    for params in (FRAME, FRAME_LOWSNR, FRAME_DELAYED, FRAME_SMOOTH, FRAME_TAPER, FRAME_SETTLED):
-        make("eb-robust", **params)
 
 
 @pytest.mark.parametrize("argv, needle", [(["--set", "beta_model=bin"], "--set 'beta_model=bin'"),

@@ -28,7 +28,7 @@ BLOCKS = (0, 1, 3, 130, 131, None)
 
 CASES = [
     ("mic-calibration", {}),
-    ("mic-calibration", dict(floor_lam_cal=0.95, min_coherence=0.0, estimate_every=3, smooth_bins=2)),
+    ("mic-calibration", dict(min_coherence=0.0, estimate_every=3, smooth_bins=2)),
     ("mic-calibration", dict(floor_s=0.0, fit_band_hz=(300.0, 6000.0))),
     ("eb-subband", {}),
     ("eb-subband", dict(adapt_gate_db=3.0, gate_floor_s=0.5, gate_lam=0.8, das_mix=True, eq_phase=True,
@@ -110,9 +110,6 @@ def _compare_state(fast, ref):
         for g, (row, gate) in enumerate(((kr.R_QB, cal.q_bin), (kr.R_QW, cal.q_band))):
             _close("gate pf", rs[row], gate.pf)
             _close("gate pb", rs[row + 1], gate.pb)
-            if ipar[kr.I_FLOORLAM]:
-                _close("floor sf", rs[row + 2], gate.sf)
-                _close("floor sb", rs[row + 3], gate.sb)
             if ipar[kr.I_NWC] > 1:
                 _close("floor", _deque_floor(fast, g, ipar[kr.I_NWC]), gate.hist.min(axis=0))
     if sub is not None:
@@ -190,8 +187,8 @@ def test_fft_pair_equals_numpy():
 
 
 def test_talker_blind_mode_runs_the_reference():
-    """The kernel does not cover the level rule / ramp: those parameter sets keep the numpy step."""
-    assert not isinstance(make("mic-calibration", freeze_level_db=3.0)._algo_init(FS, 129), fast_frames.FastState)
+    """The kernel does not cover the frame rule / ramp: those parameter sets keep the numpy step."""
+    assert not isinstance(make("mic-calibration", frame_q_db=5.0)._algo_init(FS, 129), fast_frames.FastState)
     assert isinstance(make("eb-robust", ramp_frames=40.0)._algo_init(FS, 129), tuple)
     assert isinstance(make("eb-robust")._algo_init(FS, 129), fast_frames.FastState)
 

@@ -172,10 +172,6 @@ def _talker_bursts(seed: int, *, other: bool = False):
     return talk, apply_mismatch(noise, fs=FS, **MISMATCH)
 
 
-# the talker-blind mode of issue 16 (the level rule, its hold, and the start-up ramp)
-TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0}
-
-
 def _two_runs(partner: str, **params):
     """The calibration's traces on ``s + n`` and on its partner, and the replays of ``s``."""
     s, n = _talker_bursts(31)
@@ -185,60 +181,19 @@ def _two_runs(partner: str, **params):
     return r1, r2, s
 
 
-# frames up to 0.1 s (the level rule's hangover) after the first burst: 1.6 s
+# frames up to 0.1 s after the first burst: 1.6 s
 FIRST_BURST_DONE = int(1.6 * FS / 128)
 
 
 @pytest.mark.parametrize("partner", ["s - n", "other talker"])
-def test_estimate_ignores_the_talker(partner):
-    """Issue 16: the calibration adapted on ``s + n`` (W1) and on ``s - n`` (W2: Hagerman's pair) -- or on
-    ``s' + n`` with another, 3x louder talker in the same cells -- is the same operation through the
-    talker's first burst and the level rule's hold after it.  Oracle (closed form): the two mixtures are
-    identical up to sign wherever the talker is absent, so an estimator that learns only from those cells
-    gives identical ``r_hat`` (to 1e-12: the same arithmetic on the same numbers), and the replayed talker
-    of that span has ``speech_jitter_db = -inf``.  (Later frames may differ: the rules' decisions after the
-    hold still see the talker's residue in their smoothers, a threshold flip in a few noise-only cells --
-    measured -69 dB of jitter over the 6 s here, -58 dB with the rules of before.)"""
-    from benchmarks.metrics.distortion import speech_jitter_db
-
-    r1, r2, s = _two_runs(partner, **TALKER_BLIND)
-    m = FIRST_BURST_DONE
-    np.testing.assert_allclose(r2.trace["rear_gain_db"][:m], r1.trace["rear_gain_db"][:m], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(r2.trace["rear_phase_deg"][:m], r1.trace["rear_phase_deg"][:m], rtol=0, atol=1e-12)
-    span = slice(0, m * 128 - 256)  # output samples made only from those frames
-    assert speech_jitter_db(r1.replay(s)[:, span], r2.replay(s)[:, span]) < -200.0
-
-
-@pytest.mark.parametrize("partner", ["s - n", "other talker"])
 def test_cardioid_rules_alone_listen_to_the_talker(partner):
-    """The control of the test above (the default, and the behaviour before issue 16): with only the two
-    cardioid-ratio freeze rules (``freeze_level_db=None``, no start-up ramp) the cells they leave open during the burst
+    """The control of :func:`test_frame_rule_ignores_the_talker` (the default): with only the two
+    cardioid-ratio freeze rules (``frame_q_db=None``, no start-up ramp) the cells they leave open during the burst
     carry the talker (and its cross term with the noise, which changes sign with the noise): the two runs'
     estimates differ already by the end of the first burst (by more than 1e-3 dB in some bin)."""
     r1, r2, _ = _two_runs(partner)
     m = FIRST_BURST_DONE
     assert np.max(np.abs(r2.trace["rear_gain_db"][:m] - r1.trace["rear_gain_db"][:m])) > 1e-3
-
-
-def test_learning_mask_holds_the_level_rule_before_and_after():
-    """Closed form: one firing of the level rule at frame 10 of 30 (2 frames ahead, 3 of hangover) makes the
-    averages skip exactly frames 8..13; a cardioid decision skips only its own frame; the causal mask (beta,
-    DAS mix) has no look ahead: frames 10..13."""
-    from enhancers.beam.mic_calibration import _learning_mask
-
-    K, ahead = 3, 2
-    loud = np.zeros((30 + ahead, K), dtype=bool)
-    loud[10, 1] = True
-    card = np.zeros_like(loud)
-    card[20, 2] = True
-    skip, now, last = _learning_mask(card, loud, np.full(K, -(10**9)), n_hang=3, n_ahead=ahead)
-    assert skip.shape == (30, K) and now.shape == (30, K)
-    np.testing.assert_array_equal(np.where(skip[:, 1])[0], np.arange(8, 14))
-    np.testing.assert_array_equal(np.where(skip[:, 2])[0], [20])
-    assert not skip[:, 0].any()
-    # causal mask: rows are the block's frames, i.e. frame j + ahead of the pending-first indexing
-    np.testing.assert_array_equal(np.where(now[:, 1])[0] + ahead, np.arange(10, 14))
-    assert last[1] == 10 - 30
 
 
 def _assert_blocks_match_one_pass(e, x, splits):
@@ -259,195 +214,11 @@ def _assert_blocks_match_one_pass(e, x, splits):
     np.testing.assert_allclose(np.concatenate(parts), whole, rtol=0, atol=1e-12)
 
 
-def test_blocks_match_one_pass_with_the_level_rule():
-    """Streaming (blocks of 1, 5, 37 and the rest) == one pass in the talker-blind mode (level rule, look
-    ahead, ramp): the carried state is complete.  Oracle: the same computation, to 1e-12."""
-    s, n = _talker_bursts(32)
-    _assert_blocks_match_one_pass(make("mic-calibration", **TALKER_BLIND), (s + n)[:, : 3 * FS], (1, 6, 43))
-
-
-def test_level_rule_can_leave_the_beam_mask_alone():
-    """``beam_freeze="cardioid"``: the calibration still learns only where the level rule lets it (its
-    estimate differs from the cardioid rules' alone), but the mask it hands to beta and the DAS weight is
-    the cardioid rules' only.  Oracle: the cardioid decisions do not depend on the level rule, so that mask
-    equals the default's exactly; the control (``"both"``) adds the level rule's frames."""
-    s, n = _talker_bursts(33)
-    x = (s + n)[:, : 3 * FS]
-    plain = make("mic-calibration").process(x, FS).trace
-    split = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace
-    joint = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace
-    np.testing.assert_array_equal(split["frozen"], plain["frozen"])
-    assert joint["frozen"].sum() > plain["frozen"].sum() + 100
-    assert np.max(np.abs(split["rear_gain_db"] - plain["rear_gain_db"])) > 1e-3
-
-
-def test_level_rule_ignores_a_loud_rear_source_with_the_frontal_condition():
-    """``level_frontal_db``: the level rule fires only where the band's forward/backward cardioid ratio is
-    also above 0 dB + that margin -- a loud burst from behind (a plane wave at 180 deg, 20 dB above white
-    diffuse noise) is noise to learn from, not the talker.  Oracle: with the condition the level rule's
-    mask adds nothing to the cardioid rules' after its start-up hold (the filter bank's first frame plus
-    ``level_hang_s``), so the mask equals the default's exactly from there on; control: without it the
-    burst trips the level rule (hundreds more frozen cells)."""
-    rng = np.random.default_rng(35)
-    n = 3 * FS
-    x = apply_mismatch(diffuse_noise(n, SPACING_M, fs=FS, rng=rng), fs=FS, **MISMATCH)
-    burst = np.zeros(n)
-    burst[FS:FS + FS // 2] = 10.0 * np.sqrt(np.mean(x[0] ** 2)) * rng.standard_normal(FS // 2)
-    x += apply_mismatch(plane_wave_pair(burst, az_deg=180), fs=FS, **MISMATCH)
-    plain = make("mic-calibration").process(x, FS).trace["frozen"]
-    rule = dict(TALKER_BLIND, beam_freeze="both")
-    front = make("mic-calibration", **rule, level_frontal_db=1.0).process(x, FS).trace["frozen"]
-    level = make("mic-calibration", **rule).process(x, FS).trace["frozen"]
-    start = 2 + int(np.ceil(0.1 * FS / 128))
-    np.testing.assert_array_equal(front[start:], plain[start:])
-    assert level.sum() > plain.sum() + 500
-
-
-def test_beam_freeze_level_holds_beta_where_the_level_rule_fires():
-    """``eb-robust`` with ``beam_freeze="level"``: in every cell the level rule (with its hangover) freezes,
-    beta does not move (``beta[t] == beta[t-1]`` exactly: the update is skipped).  The level rule's cells are
-    read from ``mic-calibration``'s masks: frozen with ``"both"`` (cardioid or level) but not with
-    ``"cardioid"``.  Control: with ``"cardioid"`` (beta on its own gate only) beta moves in some of them."""
-    s, n = _talker_bursts(36)
-    x = (s + n)[:, : 3 * FS]
-    both = make("mic-calibration", **TALKER_BLIND).process(x, FS).trace["frozen"]
-    card = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid").process(x, FS).trace["frozen"]
-    level_only = (both > 0) & (card == 0)
-    assert level_only[1:].sum() > 100  # measured 218
-    moves = {}
-    for mode in ("level", "cardioid"):
-        beta = make("eb-robust", **TALKER_BLIND, beam_freeze=mode).process(x, FS).trace["beta"]
-        moves[mode] = np.sum((beta[1:] != beta[:-1]) & level_only[1:])
-    assert moves["level"] == 0
-    assert moves["cardioid"] > 50  # measured 137 of the 218 level-only cells
-
-
-def test_ramp_over_band_shrinks_less():
-    """``ramp_over_band``: the start-up ramp applies ``r^min(1, N / ramp_frames)`` with ``N`` the active frames
-    of all the bins the estimate averages instead of the bin's own ``n``.  Oracle: the raw estimate does not
-    depend on the ramp, and ``N >= n``, so the applied gain (dB) over the raw one is, per frame and bin, a
-    fraction in [0, 1] that is never smaller with the option (to 1e-9), and larger in some cells."""
-    s, n = _talker_bursts(37)
-    x = (s + n)[:, : 2 * FS]
-    blind = dict(TALKER_BLIND, ramp_frames=0.0)
-    raw = make("mic-calibration", **blind).process(x, FS).trace["rear_gain_db"]
-    own, band = (make("mic-calibration", **dict(blind, ramp_frames=40.0, ramp_over_band=flag)).process(x, FS)
-                 .trace["rear_gain_db"] for flag in (False, True))
-    ok = np.abs(raw) > 1e-3
-    f_own, f_band = own[ok] / raw[ok], band[ok] / raw[ok]
-    assert np.all((f_own > -1e-9) & (f_band < 1 + 1e-9))
-    assert np.all(f_band >= f_own - 1e-9)
-    assert np.sum(f_band > f_own + 0.1) > 100
-
-
-def test_slower_level_floor_fires_less_in_stationary_noise():
-    """``level_floor_lam``: the level rule's floor is the running minimum of a more slowly smoothed level.
-    Oracle (minimum statistics): the minimum of a fluctuating level sits closer to its mean the more it is
-    smoothed, so the rule fires in fewer cells (white diffuse noise whose level swings +-6 dB at 4 Hz, like
-    babble's, 3 s: the level rule's own cells are those frozen with ``beam_freeze="both"`` but not with
-    ``"cardioid"``)."""
-    rng = np.random.default_rng(38)
-    swing = 10 ** (0.3 * np.sin(2 * np.pi * 4 * np.arange(3 * FS) / FS))
-    x = apply_mismatch(diffuse_noise(3 * FS, SPACING_M, fs=FS, rng=rng) * swing, fs=FS, **MISMATCH)
-
-    def level_cells(**kw):
-        both = make("mic-calibration", **TALKER_BLIND, **kw).process(x, FS).trace["frozen"]
-        card = make("mic-calibration", **TALKER_BLIND, beam_freeze="cardioid", **kw).process(x, FS).trace["frozen"]
-        return int(np.sum((both > 0) & (card == 0)))
-
-    fast, slow = level_cells(), level_cells(level_floor_lam=0.98)
-    assert slow < 0.8 * fast and fast > 2000  # measured 6232 vs 8709 cells
-
-
-# the calibrated direction rule: cal_frontal_db with the estimate applied
-DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0}
-
-
-def _direction_mask(x, r, **params):
-    """:func:`_calibrated_frontal`'s firings for ``x (2, n)`` judged with the estimate ``r (K,)``."""
-    import dataclasses
-
-    from enhancers.beam.mic_calibration import _calibrated_frontal, calibration_init
-
-    e = make("mic-calibration", **params)
-    X = e.filterbank.analyze(x)
-    state = dataclasses.replace(calibration_init(X.shape[2]), r_dir=r)
-    fires, _, _ = _calibrated_frontal(X[0], X[1], state, e.params, delay=e.delay_samples(FS), fs=FS)
-    return fires
-
-
-def test_direction_rule_flags_a_look_direction_source():
-    """The calibrated direction rule fires where a source in the look half plane dominates, at any level.
-    Oracle (closed form): a far-field plane wave from theta gives forward/backward cardioid powers in the
-    ratio ``sin^2(wT(1 + cos theta) / 2) / sin^2(wT(1 - cos theta) / 2)`` -- 15 dB at 45 deg for small wT,
-    -inf at 180 deg -- and a diffuse field 0 dB.  White diffuse noise with a 45 deg burst 10 dB above it
-    (0.5-1 s) and a 180 deg one (1.5-2 s), ideal mics (``r = 1``), threshold 3 dB, 500 Hz-4 kHz: the rule
-    fires in > 95 % of the frontal burst's cells (measured 100 %), < 5 % of the rear burst's (0 %) and
-    < 30 % of the noise-only ones (a 6-bin ratio of diffuse noise fluctuates by ~+-2 dB; measured 6 %)."""
-    rng = np.random.default_rng(40)
-    n = 2 * FS
-    x = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
-    t = np.arange(n) / FS
-    lvl = np.sqrt(10 * np.mean(x[0] ** 2))
-    for az, (a, b) in ((45, (0.5, 1.0)), (180, (1.5, 2.0))):
-        x += plane_wave_pair(lvl * rng.standard_normal(n) * ((t >= a) & (t < b)), az_deg=az)
-    fires = _direction_mask(x, np.ones(129, dtype=complex), **dict(DIRECTION, cal_frontal_db=3.0))
-    band = slice(8, 65)
-    frame_t = np.arange(fires.shape[0]) * 128 / FS  # a frame's end lies within 16 ms of this
-
-    def share(a, b):  # of the frames fully inside [a + 0.05, b), the smoother having settled
-        rows = (frame_t >= a + 0.05) & (frame_t + 256 / FS < b)
-        return fires[rows, band].mean()
-
-    assert share(0.5, 1.0) > 0.95
-    assert share(1.5, 2.0) < 0.05
-    assert share(0.1, 0.45) < 0.3
-
-
-def test_direction_rule_needs_the_estimate_at_low_frequencies():
-    """Why the rule uses the calibrated pair: with a 1 dB / 5 deg rear mismatch (and high-pass corners
-    80 / 120 Hz) the mismatch's common-mode leak (``~ |r - 1|``, against a difference ``~ wT``) fills the
-    backward cardioid's null at low frequencies, so a talker's ratio falls towards 0 dB there; judged with
-    the true response (``rear_response``, the oracle), the null is back.  A 45 deg plane wave of white noise,
-    200-500 Hz, threshold 3 dB (the closed form above gives ~15 dB): uncalibrated < 50 % of the cells fire
-    (measured 0 %), calibrated > 95 % (100 %)."""
-    rng = np.random.default_rng(41)
-    x = apply_mismatch(plane_wave_pair(rng.standard_normal(2 * FS), az_deg=45), fs=FS, **MISMATCH)
-    params = dict(DIRECTION, cal_frontal_db=3.0)
-    low = slice(4, 9)
-    raw = _direction_mask(x, np.ones(129, dtype=complex), **params)[10:, low].mean()
-    truth = TRUTH.astype(complex)
-    truth[0] = 1.0  # DC: the high-passes' zero (out of the band judged)
-    cal = _direction_mask(x, truth, **params)[10:, low].mean()
-    assert raw < 0.5 and cal > 0.95
-
-
-def test_direction_rule_estimate_ignores_the_talker():
-    """The talker-blind property with the direction rule alone (no level rule): the estimates adapted on
-    ``s + n`` and ``s - n`` are identical through the first burst and the rule's hold after it (same oracle
-    as :func:`test_estimate_ignores_the_talker`: identical up to sign where the talker is absent)."""
-    r1, r2, _ = _two_runs("s - n", **DIRECTION)
-    m = FIRST_BURST_DONE
-    np.testing.assert_allclose(r2.trace["rear_gain_db"][:m], r1.trace["rear_gain_db"][:m], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(r2.trace["rear_phase_deg"][:m], r1.trace["rear_phase_deg"][:m], rtol=0, atol=1e-12)
-
-
-@pytest.mark.parametrize("beam", [True, False])
-def test_blocks_match_one_pass_with_the_direction_rule(beam):
-    """Streaming (blocks of 1, 5, 41, 213 and the rest: starts between the estimate's updates and inside
-    the chunks, here of 50 frames; threshold 0 dB: half the noise cells near it) == one pass with the direction rule: its chunks are counted from the stream start, so
-    any blocking judges the same frames with the same estimate.
-    Oracle: the same computation, to 1e-12."""
-    s, n = _talker_bursts(42)
-    e = make("mic-calibration", **dict(DIRECTION, cal_frontal_beam=beam, cal_chunk=50, cal_frontal_db=0.0))
-    _assert_blocks_match_one_pass(e, (s + n)[:, : 3 * FS], (1, 6, 47, 260))
-
-
 def test_rear_rule_learns_under_a_rising_rear_source():
-    """``cal_rear_db`` (talker-blind mode, issue 16): a rear plane wave (150 deg); after 2 s the rear mic
-    drifts to the 1 dB / 5 deg mismatch while the source grows by 6 dB per second (a machine starting up),
-    which keeps the level rule (3 dB over its 3-s minimum) firing: the calibration, frozen, keeps its first
-    estimate (0 dB) and ends >= 0.5 dB off at 500 Hz-2 kHz (measured 0.99); the rear rule (backward/forward
+    """``cal_rear_db`` (with the frame rule): a rear plane wave (150 deg); after 2 s the rear mic drifts to the
+    1 dB / 5 deg mismatch while the source grows by 6 dB per second (a machine starting up), which keeps the
+    frame rule's level part (``frame_level_db=3``: 3 dB over its 3-s minimum) firing: the calibration, frozen,
+    keeps its first estimate (0 dB) and ends >= 0.5 dB off at 500 Hz-2 kHz (measured 0.85); the rear rule (backward/forward
     power >= 10 dB over the band) certifies those cells as talker-free, so it follows the drift: within
     0.2 dB (measured 0.005)."""
     rng = np.random.default_rng(41)
@@ -459,7 +230,7 @@ def test_rear_rule_learns_under_a_rising_rear_source():
     truth_db = 20 * np.log10(np.abs(TRUTH[band]))
     errs = {}
     for rear in (None, 10.0):
-        e = make("mic-calibration", freeze_level_db=3.0, cal_rear_db=rear)
+        e = make("mic-calibration", frame_q_db=5.0, frame_level_db=3.0, cal_rear_db=rear)
         g, _ = _final_estimate(e.process(x, FS).trace)
         errs[rear] = np.max(np.abs(g[band] - truth_db))
     assert errs[None] >= 0.5 and errs[10.0] <= 0.2, errs
@@ -562,12 +333,12 @@ def test_blocks_match_one_pass_with_the_model():
 
 
 def test_blocks_match_one_pass_with_the_rear_rule():
-    """Streaming (blocks of 1, 5, 37 and the rest) == one pass with the rear rule and the level rule's look
+    """Streaming (blocks of 1, 5, 37 and the rest) == one pass with the rear rule and the frame rule's look
     ahead: the rear decisions of the pending frames (``CalibrationState.pend_rear``) are carried.  Oracle: the
     same computation, to 1e-12 (and masks exactly)."""
     s, n = _talker_bursts(32)
     rear = 0.5 * plane_wave_pair(np.random.default_rng(5).standard_normal(s.shape[1]), az_deg=150)
-    e = make("mic-calibration", freeze_level_db=3.0, cal_rear_db=6.0, level_ahead_s=0.1, ramp_frames=40.0)
+    e = make("mic-calibration", frame_q_db=5.0, cal_rear_db=6.0, level_ahead_s=0.1, ramp_frames=40.0)
     _assert_blocks_match_one_pass(e, (s + n + rear)[:, : 3 * FS], (1, 6, 43))
 
 
@@ -593,15 +364,14 @@ def test_robust_fit_ignores_a_few_bins_off_the_model():
             assert gain_db > 0.1 and phase_deg > 1.0
 
 
-# the frame rule of issue 16 (a level-free, frame-level talker detector with a 0.2 s hold and 0.24 s look ahead)
+# the frame rule (a level-free, frame-level talker detector with a 0.2 s hold and 0.24 s look ahead)
 FRAME_RULE = {"frame_q_db": 5.0, "level_hang_s": 0.2, "level_ahead_s": 0.24}
 
 
 def test_frame_rule_ignores_the_talker():
-    """Issue 16, the frame rule: the calibration adapted on ``s + n`` and on ``s - n`` (Hagerman's pair) is the
-    same operation through the first burst and the rule's 0.2 s hold after it.  Oracle (closed form) as
-    :func:`test_estimate_ignores_the_talker`: the mixtures are identical up to sign wherever the talker is
-    absent, so a rule that learns only there gives identical estimates (1e-12) and ``speech_jitter_db =
+    """The frame rule: the calibration adapted on ``s + n`` and on ``s - n`` (Hagerman's pair) is the
+    same operation through the first burst and the rule's 0.2 s hold after it.  Oracle (closed form): the
+    mixtures are identical up to sign wherever the talker is absent, so a rule that learns only there gives identical estimates (1e-12) and ``speech_jitter_db =
     -inf`` over that span.  (Not so for *another* talker in the same cells: the frame where a voice's onset
     crosses the ratio threshold depends on its spectrum above 1 kHz -- 4 frames later for the 110 Hz voice
     here -- and the look ahead then leaves other noise-only frames open: the sets differ, not by the talker.)"""
@@ -653,34 +423,15 @@ def test_frame_rule_is_blind_to_level_swings_and_sees_the_talker():
     assert w[(frames < 3.6) | (frames > 4.8)][3:].min() == 1.0
 
 
-def test_frame_rule_soft_weights_are_graded():
-    """``frame_soft_db``: the weight is linear in the ratio between ``frame_q_db - frame_soft_db`` and
-    ``frame_q_db`` (closed form), so a talker near the threshold weighs part, and 0 dB of soft width is the
-    hard rule.  A talker ramping from -30 to +10 dB re diffuse noise over 4 s: the soft weights take values
-    strictly between 0 and 1, the hard ones do not, and both are 1 well before the talker and 0 at its top."""
-    rng = np.random.default_rng(6)
-    n = 6 * FS
-    noise = diffuse_noise(n, SPACING_M, fs=FS, rng=rng)
-    ramp_db = np.clip(-30 + 10 * (np.arange(n) / FS - 1.0), -60, 10)
-    talk = plane_wave_pair(rng.standard_normal(n), az_deg=45) * 10 ** (ramp_db / 20)
-    x = noise + talk * np.sqrt(np.mean(noise[0] ** 2))
-    soft = _frame_weights_of(x, frame_soft_db=2.0, level_hang_s=0.0, level_ahead_s=0.0)
-    hard = _frame_weights_of(x, level_hang_s=0.0, level_ahead_s=0.0)
-    assert set(np.unique(hard)) <= {0.0, 1.0}
-    assert ((soft > 0.05) & (soft < 0.95)).sum() >= 30  # measured 45 frames
-    assert soft[3:int(1.5 * FS / 128)].min() == 1.0 and soft[-10:].max() == 0.0 and hard[-10:].max() == 0.0
-    assert np.all(soft <= hard)  # the soft rule's top is the hard threshold: it never weighs more
-
-
 def test_blocks_match_one_pass_with_the_frame_rule():
     """Streaming (blocks of 1, 5, 37 and the rest) == one pass with the frame rule (its smoother, hold and look
     ahead carried between blocks).  Oracle: the same computation, to 1e-12."""
     s, n = _talker_bursts(33)
-    _assert_blocks_match_one_pass(make("mic-calibration", **FRAME_RULE, frame_soft_db=2.0), s + n,
+    _assert_blocks_match_one_pass(make("mic-calibration", **FRAME_RULE), s + n,
                                   [1, 6, 43, 200])
 
 
-@pytest.mark.parametrize("bad", [{"frame_q_db": 99.0}, {"frame_soft_db": -1.0}, {"frame_band_hz": (4000.0, 1000.0)}])
+@pytest.mark.parametrize("bad", [{"frame_q_db": 99.0}, {"frame_band_hz": (4000.0, 1000.0)}])
 def test_frame_rule_parameters_are_checked(bad):
     from scenesim.errors import ParameterError
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import pytest
 
+from benchmarks.run.sweep import load_sweep
 from benchmarks.studies.calibration_jitter import measure_condition
 from benchmarks.studies.ss_gain_candidates import CANDIDATES, FIXED_FRONT_END, measure
-from benchmarks.run.sweep import load_sweep
 
 
 @pytest.fixture(scope="module")

@@ -139,11 +139,10 @@ def test_vectorised_update_matches_slow_reference(gate, rng):
 
 @pytest.mark.parametrize("name, kwargs", [
     ("eb-subband", dict(adapt_gate_db=3.0, gate_floor_s=0.1)),
-    ("eb-robust", dict(beta_model="direction", beta_bands_hz=(1000.0,), beta_norm="learned", mix_bands_hz=(),
-                       mix_ramp_cells=100.0)),  # the pooled modes (enhancers.beam.beam_pool)
+    ("eb-robust", dict(mix_bands_hz=(), mix_ramp_cells=100.0)),  # the pooled DAS weight (enhancers.beam.beam_pool)
 ])
 def test_gated_streaming_equals_batch(name, kwargs, rng):
-    """With the per-bin gate on (or the pooled modes), blocks of 1, 97 and 128 samples equal batch to 1e-9
+    """With the per-bin gate on (or the pooled DAS weight), blocks of 1, 97 and 128 samples equal batch to 1e-9
     (conformance runs defaults)."""
     e = make(name, **kwargs)
     x = rng.standard_normal((2, 3000))

@@ -1,9 +1,7 @@
 """Issue 16 part 3 targets: does ``eb-robust``'s mic calibration listen to the talker?
 
     python -m benchmarks.studies.calibration_jitter [--data-dir DIR] [--seeds N] [--snrs 15 20 25]
-        [--noises babble ...] [--blind | --direction]
-        [--pooled | --combined | --frame | --frame-lowsnr | --frame-delayed | --frame-smooth | --frame-taper]
-        [--set KEY=JSON ...]
+        [--noises babble ...] [--blind] [--set KEY=JSON ...]
         [--save-baseline FILE] [--baseline FILE]
         [--mismatch-seeds N] [--skip-mismatch] [--decompose] [--ss KEY=JSON ...] [--systems NAME ...] [--pesq]
 
@@ -13,25 +11,12 @@
 one-channel system gets the reference mic.  ``--pesq``: also each row's narrow-band PESQ (MOS-LQO, as
 :func:`benchmarks.metrics.evaluate.evaluate_enhancer` scores the latency-aligned output), its mean per noise.
 
-``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``beam_freeze='"level"'
-level_frontal_db=1``; JSON lists become tuples), for both systems and the mismatch rows.
+``--set KEY=JSON ...``: ``eb-robust`` parameters on top of the mode (e.g. ``frame_q_db=4
+mix_bands_hz='[1000, 4000]'``; JSON lists become tuples), for both systems and the mismatch rows.
 
-``--blind``: the calibration's talker-blind mode (:data:`TALKER_BLIND`: the level rule, its hold
-and the start-up ramp; beta and the DAS weight then learn only where the calibration does) for
-both systems; without it, their defaults.
-
-``--direction``: the calibrated direction rule (:data:`DIRECTION`, the
-forward/backward cardioid ratio of the calibrated pair per bin, no level rule) instead.
-
-``--pooled``: beta and the DAS weight pooled over bands (:data:`POOLED`, :mod:`enhancers.beam.beam_pool`).
-``--combined``: every talker-blind piece together (:data:`COMBINED`, :data:`COMBINED_SS`; measured there).
-``--frame``: :data:`COMBINED` with the frame rule and the delayed DAS weight (:data:`FRAME`);
-``--frame-lowsnr``: the same learning during speech at low input SNR (:data:`FRAME_LOWSNR`);
-``--frame-delayed``: that with beta learned late too (:data:`FRAME_DELAYED`);
-``--frame-smooth``: that with every decision that differed between the two runs made continuous or left
-out (:data:`FRAME_SMOOTH`); ``--frame-taper``: that with the edges that still flipped graded and SNR-I bought
-back at the stream start (:data:`FRAME_TAPER`); ``--frame-settled``: that with the frame rule's decisions trusted
-only once a noise field that starts with the stream has built up (:data:`FRAME_SETTLED`).
+``--blind``: ``eb-robust-blind``'s settings (:data:`enhancers.beam.presets.EB_ROBUST_BLIND`, and
+:data:`~enhancers.beam.presets.EB_ROBUST_BLIND_SS` for the ``ss`` stage: the talker-blind rules of
+:mod:`enhancers.beam.mic_calibration`) for both systems; without it, their defaults.
 
 On the ``phone`` preset's conditions (its first ``--seeds`` seeds, every noise and SNR, or the
 ``--snrs`` given; ``--first-seed K``: seeds ``K .. K + N - 1`` instead -- phones and utterances the settings
@@ -91,92 +76,14 @@ from benchmarks.metrics.distortion import speech_jitter_db
 from benchmarks.run.sweep import load_sweep
 from benchmarks.run.worker import render_group
 from benchmarks.studies.robust_eb import snr_improvements
+from enhancers.beam.presets import EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
 from enhancers.core.registry import make, with_geometry
 from scenesim.scene.geometry import SPEED_OF_SOUND_MPS
 
 SYSTEMS = ("eb-robust", "eb-robust-ss")
 AGREE_DB = 3.0
-# the best opt-in setting measured (docs/history/2026-12-calibration-talker-blind.md); an earlier
-# one was {"freeze_level_db": 3.0, "ramp_frames": 40.0} (beam_freeze "both", no frontal condition)
-TALKER_BLIND = {"freeze_level_db": 3.0, "ramp_frames": 40.0, "ramp_over_band": True, "level_frontal_db": -1.0,
-                "beam_freeze": "level"}
-
-# the calibrated direction rule (enhancers/beam/mic_calibration.py); the best of its
-# thresholds measured (-2 dB: the lowest jitter; it freezes almost every cell of diffuse or incoherent noise)
-DIRECTION = {"cal_frontal_db": -2.0, "level_scope": "bin", "cal_frontal_beam": True, "ramp_frames": 40.0,
-             "ramp_over_band": True, "beam_freeze": "level"}
-
-# pooled beta and DAS weight (issue 16 part 3, enhancers/beam/beam_pool.py): one rear direction for the whole band
-# (normaliser over the learned cells only, step 0.015 per frame) and the DAS weight in three bands (0-1, 1-4, 4-8 kHz)
-# held near its prior until a band has learned 300 cells
-POOLED = {"beta_model": "direction", "mu": 0.015, "beta_norm": "learned", "mix_bands_hz": (1000.0, 4000.0),
-          "mix_ramp_cells": 300.0}
-
-
-# every talker-blind piece of issue 16 part 3 together (session 23's best measured combination; all opt-in):
-# the calibration learns only where the level rule (per bin, 0.3 s hold, 0.15 s look ahead) says the talker is
-# absent, with the parametric sensor model (model="hp1") and the start-up ramp; beta on its own gate as one
-# rear direction (POOLED without the DAS ramp); the DAS weight in three bands from the DAS prior 1; the EQ's
-# bound from a fixed pattern (eq_bound_beta=0); ss's gain averaged over bins and frames (COMBINED_SS).
-# Measured (5 seeds, every noise and SNR; load ~2-3 on 2 cores), eb-robust-ss against today's default:
-#   jitter at >= 15 dB, worst / median / rows above -30: built-in -25.1 / -40.0 / 8 of 60 (default -7.7, 60 of
-#   60); ../shared/data -12.4 / -35.0 / 16 of 60 (default -1.2); replay = Hagerman within 3 dB on 100 % / 98 %;
-#   mean SNR-I change per noise (built-in / shared) babble -0.79 / -0.25, factory -3.96 / -3.33, factory-hall
-#   +1.80 / +1.15, wind +0.14 / -0.17 dB; issue 12's mismatch loss 28.5 / 30.3 / 1.4 dB at 135 / 240 deg /
-#   diffuse (the level rule never lets the calibration learn behind that talker) -- so it misses the
-#   factory SNR-I and mismatch targets and the jitter target in the hall and wind rows.
-COMBINED = {**POOLED, "mix_ramp_cells": 0.0, "model": "hp1", "eq_bound_beta": 0.0, "mix_alpha0": 1.0,
-            "ramp_frames": 40.0, "ramp_over_band": True, "freeze_level_db": 3.0, "level_scope": "bin",
-            "level_hang_s": 0.3, "level_ahead_s": 0.15, "beam_freeze": "cardioid"}
-COMBINED_SS = {"power_bins": 2, "gain_bins": 2, "gain_smooth": 0.55}
-
-# the frame rule (enhancers/beam/mic_calibration.py): COMBINED with the level rule and the
-# cardioid rules replaced by ONE level-free decision per frame -- the forward/backward cardioid ratio over
-# 1-4 kHz above 5 dB, held 0.2 s after and 0.24 s before -- and the DAS weight learned on it, 0.24 s late
-# (mix_model="delayed"); measured in the module docstring of enhancers/beam/mic_calibration.py
-FRAME = {**COMBINED, "freeze_level_db": None, "frame_q_db": 5.0, "level_hang_s": 0.2, "level_ahead_s": 0.24,
-         "beam_freeze": "das", "mix_model": "delayed"}
-# the same, giving SNR-I back: below ~6 dB estimated input SNR the calibration and the DAS weight learn on the
-# cardioid rules' cells again (frame_snr_db: the noise masks the talker there); the DAS weight learned at once on
-# the frames before the talker is first heard stands in for the delayed one until that has 2000 cells of a band;
-# beta per bin (the deeper null of one plane wave), frozen where the frame rule hears the talker at high SNR
-FRAME_LOWSNR = {**FRAME, "frame_snr_db": (6.0, 12.0), "mix_fast_cells": 2000.0, "beta_model": "bin", "mu": 0.1,
-                "beta_norm": "frame", "beam_freeze": "level"}
-# the same with beta learned late as well : one least-squares beta per bin on the
-# calibration's held weights, 0.24 s late (beta_model="delayed"; beta_fast_frames: a start-up stand-in for its
-# first 10 frames); the frame rule also judges 250 Hz-1 kHz on its own (frame_low_hz: a voiced syllable's power
-# lies there) and stops at a frame 20 dB over the noise floor (frame_level_db); the DAS weight's stand-in only
-# until 500 cells and shrunk towards its prior for its first 200 (mix_ramp_cells); the calibration learns
-# rear-dominated cells in a talker's frames too (cal_rear_db=10: issue 12's 135 deg mismatch)
-FRAME_DELAYED = {**FRAME_LOWSNR, "beta_model": "delayed", "beam_freeze": "das", "beta_fast_frames": 10.0,
-                 "mix_fast_cells": 500.0, "mix_ramp_cells": 200.0, "cal_rear_db": 10.0, "frame_low_hz": 250.0,
-                 "frame_level_db": 20.0}
-# the same with the decisions that differed between the runs on s + n and s - n made continuous or left out
-# : the rear rule's threshold follows the SNR share (cal_rear_db at high input SNR,
-# cal_rear_low_db=6 at low: issue 12's 240 deg mismatch), the frame rule's decisions in the first 0.05 s are
-# not trusted (frame_start_s: a recording's start transient), the stand-ins hand over to the delayed estimates
-# linearly (fast_blend), the SNR share grows with the frames it has seen (frame_snr_frames=40) and takes the
-# noise's power from the frames away from the ratio rule's talker frames (frame_snr_quiet, frame_snr_quiet_ratio:
-# a reverberant talker's unmarked frames are not noise, a machine's hits are), over 250 Hz-4 kHz
-# (frame_snr_low_hz: the talker's band) and a range 2 dB higher (frame_snr_db=(8, 14); issue 12's 135 deg)
-FRAME_SMOOTH = {**FRAME_DELAYED, "cal_rear_low_db": 6.0, "frame_start_s": 0.05, "fast_blend": True,
-                "frame_snr_frames": 40.0, "frame_snr_quiet": True, "frame_snr_quiet_ratio": True,
-                "frame_snr_low_hz": 250.0, "frame_snr_db": (8.0, 14.0)}
-# the same with the edges that still flipped between the runs graded : the frame rule's
-# hold tapers over 0.05 s at both ends (frame_hold_taper_s: an onset heard a frame apart moved a whole noise
-# frame), the rear rule's weight ramps over 3 dB above cal_rear_db on a slower smoother (cal_rear_soft_db,
-# cal_rear_lam: the talker x noise cross term in P_F decided cells near the threshold), the SNR share's noise
-# average skips a frame 15 dB over it (frame_snr_clip_db: a talker the ratio missed made 15 dB input read ~5 dB);
-# and SNR-I bought back where it was lost, at the stream start (factory at 0-5 dB: the null learned late): the
-# DAS weight's stand-in unshrunk (mix_fast_ramp_cells=0) and from the prior 0 (mix_alpha0), the share's ramp
-# over 10 frames
-FRAME_TAPER = {**FRAME_SMOOTH, "frame_hold_taper_s": 0.05, "cal_rear_soft_db": 3.0, "cal_rear_lam": 0.8,
-               "frame_snr_clip_db": 15.0, "mix_fast_ramp_cells": 0.0, "mix_alpha0": 0.0, "frame_snr_frames": 10.0}
-# the same with the frame rule's first 0.13 s untrusted : a noise field that starts with
-# the stream -- the hall's machines, rendered from t = 0 -- builds up over its first ~50 ms and its first arrivals
-# read as a frontal talker to 0.125 s; judged, that ended the DAS weight's start-up stand-in after 6 frames,
-# whose cross term with the speech recording's own background then differed between the runs for the whole file
-FRAME_SETTLED = {**FRAME_TAPER, "frame_start_s": 0.13}
+#: ``--blind``: eb-robust-blind's eb-robust parameters and its ss stage's
+TALKER_BLIND, TALKER_BLIND_SS = EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
 
 
 def _params(blind, overrides=None) -> dict:
@@ -375,29 +282,25 @@ def _key_json(items, option: str) -> dict:
                 raise ValueError("no '='")
             out[key] = json.loads(value)
         except ValueError as e:
-            raise ValueError(f"{option} {item!r}: expected KEY=JSON, e.g. beam_freeze='\"level\"' or mu=0.02 ({e})") from None
+            raise ValueError(f"{option} {item!r}: expected KEY=JSON, e.g. model='\"hp1\"' or mu=0.02 ({e})") from None
     return out
 
 
 def parse_set(items, option: str = "--set") -> dict:
     """``eb-robust`` parameters from ``KEY=JSON`` strings (JSON lists become tuples: the bands are pairs).
 
-    >>> parse_set(["mu=0.02", 'beam_freeze="level"', "mix_bands_hz=[1000, 4000]"])
-    {'mu': 0.02, 'beam_freeze': 'level', 'mix_bands_hz': (1000, 4000)}
+    >>> parse_set(["mu=0.02", 'model="hp1"', "mix_bands_hz=[1000, 4000]"])
+    {'mu': 0.02, 'model': 'hp1', 'mix_bands_hz': (1000, 4000)}
     """
     return {k: tuple(v) if isinstance(v, list) else v for k, v in _key_json(items, option).items()}
 
 
 def mode_params(args) -> tuple[dict, dict]:
-    """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the named setting
-    (``--direction``, ``--pooled``, ``--combined``) under the explicit ``--set`` / ``--ss`` values."""
+    """``(eb-robust overrides, ss-stage parameters)`` from the parsed options: the explicit ``--set`` / ``--ss``
+    values, the ss stage's over :data:`TALKER_BLIND_SS` with ``--blind`` (``--blind``'s eb-robust parameters are
+    :func:`_params`')."""
     overrides, ss = parse_set(args.set), _key_json(args.ss, "--ss")
-    frame = (FRAME_SETTLED if args.frame_settled else FRAME_TAPER if args.frame_taper else FRAME_SMOOTH
-             if args.frame_smooth else FRAME_DELAYED if args.frame_delayed else FRAME_LOWSNR if args.frame_lowsnr
-             else FRAME if args.frame else {})
-    named = {**(DIRECTION if args.direction else {}), **(POOLED if args.pooled else {}),
-             **(COMBINED if args.combined else {}), **frame}
-    return {**named, **overrides}, {**(COMBINED_SS if args.combined or frame else {}), **ss}
+    return overrides, {**(TALKER_BLIND_SS if args.blind else {}), **ss}
 
 
 def main(argv=None) -> int:
@@ -408,25 +311,11 @@ def main(argv=None) -> int:
                     help="start at this seed instead of 0 (e.g. 5: seeds the settings were not tuned on)")
     ap.add_argument("--snrs", type=float, nargs="*", default=None, help="input SNRs to keep (default: all six)")
     ap.add_argument("--noises", nargs="*", default=None, help="noises to keep (default: all of phone's)")
-    ap.add_argument("--blind", action="store_true", help="the calibration's talker-blind mode (TALKER_BLIND)")
-    ap.add_argument("--direction", action="store_true", help="the calibrated direction rule (DIRECTION)")
-    ap.add_argument("--pooled", action="store_true", help="pooled beta and DAS weight (POOLED), beside either mode")
-    ap.add_argument("--combined", action="store_true",
-                    help="every talker-blind piece together (COMBINED, and COMBINED_SS for the ss stage)")
-    ap.add_argument("--frame", action="store_true", help="COMBINED with the frame rule and the delayed DAS weight (FRAME)")
-    ap.add_argument("--frame-lowsnr", action="store_true",
-                    help="FRAME learning during speech at low input SNR, with a fast start and beta per bin (FRAME_LOWSNR)")
-    ap.add_argument("--frame-delayed", action="store_true",
-                    help="FRAME_LOWSNR with beta learned late too, the low band and level rules (FRAME_DELAYED)")
-    ap.add_argument("--frame-smooth", action="store_true",
-                    help="FRAME_DELAYED with the decisions that differed between the runs made continuous (FRAME_SMOOTH)")
-    ap.add_argument("--frame-taper", action="store_true",
-                    help="FRAME_SMOOTH with the hold's and the rear rule's edges graded (FRAME_TAPER)")
-    ap.add_argument("--frame-settled", action="store_true",
-                    help="FRAME_TAPER with the frame rule's first 0.13 s untrusted (FRAME_SETTLED)")
+    ap.add_argument("--blind", action="store_true",
+                    help="eb-robust-blind's settings (TALKER_BLIND, and TALKER_BLIND_SS for the ss stage)")
     ap.add_argument("--decompose", action="store_true", help="per adapted quantity, eb-robust's rows above -30 dB")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=JSON",
-                    help="eb-robust parameters on top of the mode, e.g. beam_freeze=\"level\"")
+                    help="eb-robust parameters on top of the mode, e.g. model=\"hp1\"")
     ap.add_argument("--ss", nargs="*", default=[], metavar="KEY=JSON",
                     help="parameters of eb-robust-ss's ss stage (and of ss), e.g. gain_smooth=0.4")
     ap.add_argument("--systems", nargs="*", default=list(SYSTEMS), help="systems to run (default: eb-robust eb-robust-ss)")

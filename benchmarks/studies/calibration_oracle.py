@@ -10,12 +10,11 @@ power over both mics is at least ``-threshold_db`` below the noise's (``rho = |S
 measures (jitter, replay SNR-I) plus the fraction of cells learned, and issue 12's mismatch loss in
 :mod:`benchmarks.studies.robust_eb`'s scene.  No enhancer in a sweep sees the mask.
 
-How: inside :func:`oracle_learning`, the calibration's freeze rules
-(:func:`enhancers.beam.mic_calibration._freeze`) return the oracle's cells (both its cardioid and its level
-masks), with no hold or look ahead (``level_hang_s = level_ahead_s = 0``), beta's own gate off
-(``adapt_gate_db=None``) and ``beam_freeze="both"``: the calibration, beta and the DAS weight learn
-on exactly the oracle's cells (``--scope all``).  ``--scope calibration``: only the calibration does;
-beta and the DAS weight keep their own gate.
+How: inside :func:`oracle_learning` (which runs the numpy step, not the compiled one), the calibration's
+freeze rules (:func:`enhancers.beam.mic_calibration._freeze`) return the oracle's cells, and the beamformer's
+beta and DAS weight are frozen on the same cells, with beta's own gate off (``adapt_gate_db=None``): the
+calibration, beta and the DAS weight learn on exactly the oracle's cells (``--scope all``).  ``--scope
+calibration``: only the calibration does; beta and the DAS weight keep their own gate.
 
 Why it matters.  In cells where the talker is absent the runs on ``s + n`` and ``s - n`` are the same
 up to sign, so a rule that learned only there would give ``W1 = W2`` (the issue's premise).  The
@@ -24,22 +23,15 @@ term of a learned cell is ``~2 sqrt(rho)`` of its noise, and the estimate's diff
 ``~ sqrt(sum rho_i) / K`` over the ``K`` cells it pools, amplified at low frequencies by the
 differential pair's ``1 / (2 w T)``.
 
-Measured (shared data = ``../shared/data``, 2 seeds, 15-25 dB, ``ramp_frames=40, ramp_over_band``,
-this module's defaults otherwise; 2 cores, load ~2): see the module's ``--help`` run in the closing
-note of issue 16; in short, at -20 dB the worst ``eb-robust`` row is -15.6 dB, at -40 dB every row is
+Measured (shared data = ``../shared/data``, 2 seeds, 15-25 dB, ``ramp_frames=40`` counted over the
+averaging band -- today's ramp counts the bin's own frames, so a rerun differs a little --, this module's
+defaults otherwise; 2 cores, load ~2): at -20 dB the worst ``eb-robust`` row is -15.6 dB, at -40 dB every row is
 <= -32 dB; with ``mix_alpha0=1`` also the SNR-I per noise is within 1 dB of the default (wind +2.8 dB),
 and the mismatch loss is <= 0.2 dB (the built-in voice's pauses suffice).  Blind rules learn 0-3 % of
 the cells in babble and factory where the -40 dB oracle finds 8-10 %.
 
 ``--frame``: the decision per *frame* (talker-to-noise power over 125 Hz-4 kHz, every bin alike), the one
-the frame rule of :mod:`enhancers.beam.mic_calibration` makes blind; ``--frame-setting``: ``eb-robust`` as
-:data:`benchmarks.studies.calibration_jitter.FRAME` around it (beta on its own gate, no hold).  Measured
-(``--data-dir ../shared/data --frame --frame-setting --threshold-db -10 --seeds 2 --mismatch-seeds 1``, 2
-December 2026, 45 s): ``eb-robust-ss`` worst jitter -35.9 / -32.3 / -34.1 / -38.9 dB (babble / factory /
-factory-hall / wind), SNR-I 4.97 / 9.38 / 3.50 / 11.55 dB (the default on the same rows 4.16 / 9.56 / 2.18 /
-8.95), 21-28 % of the cells learned; mismatch loss 1.4 / 1.6 / 0.0 dB at 135 / 240 deg / diffuse: every
-target of issue 16 part 3 on these rows, so a frame-level decision suffices where the talker is >= 10 dB
-below the noise.
+the frame rule of :mod:`enhancers.beam.mic_calibration` makes blind.
 """
 
 from __future__ import annotations
@@ -52,18 +44,16 @@ import numpy as np
 
 import enhancers
 import enhancers.beam.mic_calibration as mc
+import enhancers.beam.subband_eb as sb
 from benchmarks.run.sweep import load_sweep
 from benchmarks.studies import calibration_jitter as cj
 from benchmarks.studies import robust_eb as rb
+from enhancers.kernels import frames as fast_frames
 
 #: what the oracle switches off so that its mask is the only rule (and the one beta and the DAS weight use)
-ORACLE_PARAMS = {"freeze_level_db": 3.0, "level_hang_s": 0.0, "level_ahead_s": 0.0, "beam_freeze": "both",
-                 "adapt_gate_db": None}
-#: ``--frame-setting``: calibration_jitter's FRAME around the oracle -- beta on its own gate, the DAS weight and
-#: the calibration on the oracle's frames, no hold (what the frame rule approximates blind)
-FRAME_SETTING = {"beam_freeze": "das", "adapt_gate_db": 3.0, "level_hang_s": 0.0, "level_ahead_s": 0.0}
-#: ``--scope calibration``: beta keeps its own gate, the DAS weight learns on that gate only
-CALIBRATION_ONLY = {"beam_freeze": "cardioid", "adapt_gate_db": 3.0}
+ORACLE_PARAMS = {"adapt_gate_db": None}
+#: ``--scope calibration``: beta and the DAS weight keep their own gate
+CALIBRATION_ONLY = {"adapt_gate_db": 3.0}
 
 
 #: ``--frame``: the band over which a frame's talker-to-noise ratio is taken (Hz)
@@ -104,20 +94,24 @@ def oracle_mask(speech: np.ndarray, noise: np.ndarray, filterbank, threshold_db:
 @contextlib.contextmanager
 def oracle_learning(mask: np.ndarray, *, calibration_only: bool = False):
     """Within the block, :func:`enhancers.beam.mic_calibration._freeze` returns ``mask``'s rows for the frames
-    it is asked about (counted from each stream's start), as both its cardioid and its level decision
-    (``calibration_only``: as the level decision only, so that beta and the DAS weight keep their gate)."""
-    original = mc._freeze
+    it is asked about (counted from each stream's start), and the sub-band beamformer's beta and DAS weight
+    are frozen on the same rows (``calibration_only``: they keep their own gate); the numpy step runs (the
+    compiled one has no such hook)."""
+    original, beamform, compiled = mc._freeze, sb.SubbandBase._beamform, fast_frames.COMPILED
 
     def frozen(X1, X2, state, p, *, fs, delay, band):
-        _, _, changes = original(X1, X2, state, p, fs=fs, delay=delay, band=band)
-        rows = mask[state.n_frames:state.n_frames + X1.shape[0]]
-        return (np.zeros_like(rows) if calibration_only else rows.copy()), rows.copy(), changes
+        _, changes = original(X1, X2, state, p, fs=fs, delay=delay, band=band)
+        return mask[state.n_frames:state.n_frames + X1.shape[0]].copy(), changes
 
-    mc._freeze = frozen
+    def oracle_beamform(self, X1, X2, sub, fs, mix_frozen=None, beta_frozen=None, mix_learn=None):
+        rows = None if calibration_only else mask[sub.frames:sub.frames + X1.shape[0]].copy()
+        return beamform(self, X1, X2, sub, fs, mix_frozen=rows, beta_frozen=rows, mix_learn=mix_learn)
+
+    mc._freeze, sb.SubbandBase._beamform, fast_frames.COMPILED = frozen, oracle_beamform, False
     try:
         yield
     finally:
-        mc._freeze = original
+        mc._freeze, sb.SubbandBase._beamform, fast_frames.COMPILED = original, beamform, compiled
 
 
 def oracle_params(scope: str, overrides=None) -> dict:
@@ -177,25 +171,21 @@ def main(argv=None) -> int:
     ap.add_argument("--snrs", type=float, nargs="*", default=[15.0, 20.0, 25.0])
     ap.add_argument("--threshold-db", type=float, nargs="*", default=[-40.0])
     ap.add_argument("--scope", choices=("all", "calibration"), default="all")
-    ap.add_argument("--set", nargs="*", default=["ramp_frames=40", "ramp_over_band=true"], metavar="KEY=JSON",
+    ap.add_argument("--set", nargs="*", default=["ramp_frames=40"], metavar="KEY=JSON",
                     help="eb-robust parameters on top of the oracle's (default: the start-up ramp)")
     ap.add_argument("--mismatch-seeds", type=int, default=0, help="issue 12's scene, seeds 3, 13, ... (0: skip)")
     ap.add_argument("--frame", action="store_true",
                     help="a frame-level oracle: the talker-to-noise ratio over 125 Hz-4 kHz decides the whole frame")
-    ap.add_argument("--frame-setting", action="store_true",
-                    help="eb-robust-ss as calibration_jitter's FRAME (without its rule; the DAS weight on the oracle)")
     args = ap.parse_args(argv)
     try:
-        base = {**cj.COMBINED, **FRAME_SETTING} if args.frame_setting else {}
-        params = oracle_params(args.scope, {**base, **cj.parse_set(args.set)})
+        params = oracle_params(args.scope, cj.parse_set(args.set))
     except ValueError as e:
         ap.error(str(e))  # one line and the usage, exit status 2
-    ss = cj.COMBINED_SS if args.frame_setting else None
     print(f"phone, data: {args.data_dir or 'built-in'}, seeds 0..{args.seeds - 1}, SNRs {args.snrs}, "
           f"scope {args.scope}, eb-robust {json.dumps(params)}")
     for thr in args.threshold_db:
         print_rows(phone_oracle_rows(args.data_dir, seeds=args.seeds, snrs=args.snrs, threshold_db=thr,
-                                     params=params, scope=args.scope, frame=args.frame, ss=ss), thr)
+                                     params=params, scope=args.scope, frame=args.frame), thr)
         for k in range(args.mismatch_seeds):
             losses = mismatch_losses(3 + 10 * k, thr, params, args.scope, frame=args.frame)
             print(f"\nmismatch scene, seed {3 + 10 * k}: " + "; ".join(

@@ -66,9 +66,7 @@ frames by it selects on the very cross-spectrum being estimated and biases the p
 (measured in diffuse noise: 6-7 deg at 1-4 kHz); the neighbours' noise is nearly
 independent of the bin's.  The price of a floor-relative rule: in stationary diffuse noise
 the ratio fluctuates above its 1-s minimum, so ~75 % of the bins are frozen and the
-estimate converges ~4x more slowly than ``tau_s`` (a slower floor smoother,
-``floor_lam_cal``, freezes less but lets speech leak: 7 dB less SNR-I at 135 deg with
-mismatch).  While frozen, ``r_hat`` holds.  The decisions do not depend on ``r_hat``, so
+estimate converges ~4x more slowly than ``tau_s``.  While frozen, ``r_hat`` holds.  The decisions do not depend on ``r_hat``, so
 they are vectorised; the averages are a loop over frames vectorised over bins.
 ``r_hat`` is recomputed from the averages every ``estimate_every`` frames (default 4 = 32
 ms, counted from the stream start; it moves with time constant ``tau_s`` anyway) and
@@ -79,35 +77,43 @@ white noise, per-bin worst case): in diffuse noise 0.17 dB / 1.1 deg from 100 Hz
 0.25 dB / 2.2 deg to 4 kHz; one far-field plane wave at 135 or 240 deg 0.17 dB / 1 deg from
 100 Hz to 7 kHz; a near-field talker at +10 dB for 4 s moves it by 0.06 dB / 0.5 deg.
 
-Talker-blind mode (opt-in; off by default).  The cardioid rules above leave cells open while the
-talker speaks within 1-2 dB of its ratio's floor, and at 15-25 dB input those cells carry the
-talker x noise cross term, which changes sign with the noise: the estimate then differs between
-Hagerman's runs on ``s + n`` and ``s - n``.  The opt-in rules learn only where the talker is absent:
+Talker-blind rules (off by default; ``eb-robust-blind``'s settings are
+:data:`enhancers.beam.presets.EB_ROBUST_BLIND`).  The cardioid rules above leave cells open while the talker
+speaks within 1-2 dB of its ratio's floor, and at 15-25 dB input those cells carry the talker x noise cross
+term, which changes sign with the noise: the estimate then differs between Hagerman's runs on ``s + n`` and
+``s - n``.  Where the talker is absent the two mixtures are the same up to sign, so rules that learn only
+there give both runs the same estimate:
 
-* a level rule (``freeze_level_db``): the band power of both mics over ``level_band_hz`` above its
-  running minimum over ``level_floor_s`` freezes the frame, held ``level_hang_s`` after and
-  ``level_ahead_s`` before (the averages run that far behind the input);
-* a frame rule (``frame_q_db`` and the ``frame_*`` fields): one decision per frame from the band's
-  forward/backward cardioid ratio, with graded edges, trusted after ``frame_start_s``;
-* a calibrated-direction rule (``cal_frontal_db``) and a rear rule (``cal_rear_db``), which judge the
-  direction after the current estimate is applied;
-* a start-up ramp (``ramp_frames``): while a bin has ``n`` active frames the applied estimate is
-  ``r^min(1, n / ramp_frames)``; and ``beam_freeze``, which masks ``eb-robust``'s beta and DAS
-  weight learn on.
+* the frame rule (``frame_q_db``): ``q = 10 log10(P_F / P_B)`` of the band sums over ``frame_band_hz``
+  (and, with ``frame_low_hz``, over ``frame_low_hz``-``frame_band_hz[0]`` judged on its own), smoothed by
+  ``gate_lam_cal``; a frame with ``q >= frame_q_db`` in any band is the talker's (weight 0, else 1), and
+  so is one whose band power is ``frame_level_db`` over its running minimum over ``level_floor_s``.  The
+  decisions of the first ``frame_start_s`` are not trusted (weight 1).  Each frame's weight is the
+  minimum over ``level_hang_s`` before it and ``level_ahead_s`` after it (the averages run that far
+  behind the input), with edges tapered over ``frame_hold_taper_s`` (:func:`_held`);
+* the SNR share (``frame_snr_db = (lo, hi)``): from the estimated input SNR (one-pole band powers of the
+  talker's and the other frames, :func:`_frame_snr_share`) the weights move linearly from the cardioid
+  rules' (below ``lo`` dB: the noise masks the talker) to the frame rule's (above ``hi``);
+* the rear rule (``cal_rear_db``): a cell whose *calibrated* backward/forward cardioid ratio (the powers
+  of the bins :data:`LEVEL_NEAR` away, the estimate of the last ``cal_chunk``-frame chunk applied) is
+  over ``cal_rear_db`` is learned in a talker's frame too -- graded over ``cal_rear_soft_db``, on a
+  smoother ``cal_rear_lam``, with ``cal_rear_low_db`` taking the share's place at low SNR
+  (:func:`_rear_weight`);
+* the start-up ramp (``ramp_frames``): while a bin has ``n`` active frames the applied estimate is
+  ``r^min(1, n / ramp_frames)``; and the sensor model (``model="hp1"``,
+  :mod:`enhancers.beam.calibration_model`), 4 parameters fitted over ``model_band_hz`` instead of per-bin
+  averages.
 
-Where the talker is absent the two mixtures are the same up to sign, so both runs learn the same
-estimate (tests/test_mic_calibration.py: identical estimates through a talker burst).  Measured
-accuracy of the combination registered as ``eb-robust-blind`` (``enhancers/beam/presets.py``): on
-``phone`` at >= 15 dB input it keeps ``speech_jitter_db`` below -30 dB on the seeds it was chosen on
-but not on others (seeds 5-9: 6 of 60 rows above -30 dB on the built-in data, 7 of 60 on
-``../shared/data``; ``python -m benchmarks.studies.calibration_jitter --frame-settled --first-seed 5``),
-at 13x ``eb-robust``'s cost.  The rules, their measurements and the settings tried are recorded in
-``docs/history/2026-12-calibration-talker-blind.md``; the principled alternative is
-:mod:`enhancers.beam.spp_eb` (the same estimate from an SPP-weighted noise covariance).
+Measured (tests/test_mic_calibration.py): with the frame rule the estimates of the runs on ``s + n`` and
+``s - n`` are identical through a talker burst.  ``eb-robust-blind`` on ``phone`` at >= 15 dB input keeps
+``speech_jitter_db`` below -30 dB on seeds 0-4 but not on seeds 5-9 (6 of 60 rows above -30 dB on the
+built-in data, 7 of 60 on ``../shared/data``; ``python -m benchmarks.studies.calibration_jitter --blind
+--first-seed 5``), at 13x ``eb-robust``'s cost; :mod:`enhancers.beam.spp_eb` estimates the same response
+from an SPP-weighted noise covariance.
 
 ``trace``: ``"rear_gain_db"``, ``"rear_phase_deg"`` (``(n_frames, n_bins)``, the applied
 estimate) and ``"frozen"`` (``(n_frames, n_bins)``, 1.0 where the current frame is frozen --
-without the level rule's look ahead: the mask beta and the DAS weight use).
+without the frame rule's look ahead: the mask the DAS weight uses).
 Latency ``frame_len - 1`` samples.
 """
 
@@ -137,15 +143,8 @@ from scenesim.validate import check_int, check_range
 
 __all__ = ["CalibrationState", "MicCalibration", "calibration_step"]
 
-# which of the calibration's masks freeze eb-robust's beta / DAS weight in the talker-blind mode
-# (beta always has its own gate too): "both": beta and DAS on the cardioid and level rules;
-# "cardioid": beta on its gate only, DAS on the cardioid rules; "level": beta on the level rule, DAS on both;
-# "das": beta on its gate only, DAS on both
-BEAM_FREEZE = ("both", "cardioid", "level", "das")
-# where the talker-blind level rule (and its frontal condition) measure: the whole level band per
-# frame ("band"), or per bin from its neighbours LEVEL_NEAR bins away ("bin": a talker-free bin of a
-# talker frame still learns -- speech is sparse in time and frequency)
-LEVEL_SCOPE = ("band", "bin")
+# the rear rule measures a bin from its neighbours LEVEL_NEAR bins away (not the bin itself: selecting on a
+# cell's own power would bias its averages), so a talker-free bin of a talker frame still learns
 LEVEL_NEAR = (-4, -3, -2, 2, 3, 4)
 # what r_hat is: "bins", smoothed per-bin averages; "hp1", the 4-parameter sensor model fitted over model_band_hz
 MODELS = ("bins", "hp1")
@@ -153,7 +152,7 @@ MODELS = ("bins", "hp1")
 
 @dataclass(frozen=True)
 class CalibrationState:
-    """Streaming state: averages ``(3, K)`` (S11, S22, S21), freeze smoother and floor history."""
+    """Streaming state: averages ``(3, K)`` (S11, S22, S21), the rules' smoothers and floor histories."""
 
     avg: np.ndarray          # complex (3, K)
     r_last: np.ndarray       # complex (K,) the estimate of the last update frame (as applied)
@@ -162,14 +161,9 @@ class CalibrationState:
     counts: np.ndarray       # (K,) active frames so far per bin (the running-mean start)
     q_bin: GateState         # the per-bin freeze rule's state
     q_band: GateState        # the band freeze rule's state
-    q_level: GateState       # the level rule's state (band power re its running minimum)
-    q_front: GateState       # the level rule's direction condition (band cardioid ratio re 0 dB)
-    last_loud: np.ndarray    # (K,) frame (re the first pending one) the level rule last fired per bin
     pend_x: np.ndarray       # complex (D, 3, K): the last D frames' products, not yet averaged
     pend_card: np.ndarray    # bool (D, K): their cardioid-rule decisions
-    pend_loud: np.ndarray    # bool (D, K): their level-rule firings
-    q_cal: GateState         # the calibrated direction rule's smoothed cardioid powers
-    r_dir: np.ndarray        # complex (K,) the estimate that rule uses (the last chunk start's)
+    r_dir: np.ndarray        # complex (K,) the estimate the rear rule applies (the last chunk start's)
     q_rear: GateState | None = None  # the rear rule's smoothed cardioid powers (cal_rear_db)
     pend_rear: np.ndarray | None = None  # bool (D, K): the rear rule's decisions of the pending frames (uint8
     #                                       levels 0 / 1 / 2 with cal_rear_low_db)
@@ -199,22 +193,12 @@ class CalibrationParams(StftParams):
     freeze_db: float = 2.0
     freeze_band_db: float = 1.0
     gate_lam_cal: float = 0.7
-    floor_lam_cal: float | None = None
     floor_s: float = 1.0
-    freeze_level_db: float | None = None
-    level_band_hz: tuple[float, float] = (200.0, 7000.0)
     level_floor_s: float = 3.0
-    level_floor_lam: float | None = None
-    level_frontal_db: float | None = None
     level_hang_s: float = 0.1
     level_ahead_s: float = 0.1
     ramp_frames: float = 0.0
-    ramp_over_band: bool = False
-    beam_freeze: str = "both"
-    level_scope: str = "band"
-    cal_frontal_db: float | None = None
     cal_chunk: int = 8
-    cal_frontal_beam: bool = False
     cal_rear_db: float | None = None
     cal_rear_low_db: float | None = None
     model: str = "bins"
@@ -224,7 +208,6 @@ class CalibrationParams(StftParams):
     model_robust: float | None = 0.05
     frame_q_db: float | None = None
     frame_band_hz: tuple[float, float] = (1000.0, 4000.0)
-    frame_soft_db: float = 0.0
     frame_snr_db: tuple | None = None
     frame_low_hz: float | None = None
     frame_level_db: float | None = None
@@ -240,11 +223,11 @@ class CalibrationParams(StftParams):
 
     @property
     def talker_blind(self) -> bool:
-        """True when a level, calibrated-direction or frame rule (the talker-blind mode, issue 16) is on."""
-        return self.freeze_level_db is not None or self.cal_frontal_db is not None or self.frame_q_db is not None
+        """True when the frame rule (the talker-blind mode) is on."""
+        return self.frame_q_db is not None
 
     def look_ahead_frames(self, fs: int) -> int:
-        """``D``: the frames the talker-blind averages run behind the input (``level_ahead_s``; 0 without a rule)."""
+        """``D``: the frames the talker-blind averages run behind the input (``level_ahead_s``; 0 without it)."""
         return int(round(float(self.level_ahead_s) * fs / int(self.hop))) if self.talker_blind else 0
 
     def _check_calibration(self):
@@ -260,25 +243,12 @@ class CalibrationParams(StftParams):
         check_range("phase_leak", self.phase_leak, 0.0, 1.0)
         check_range("freeze_db", self.freeze_db, -60.0, 60.0)
         check_range("freeze_band_db", self.freeze_band_db, -60.0, 60.0)
-        if self.floor_lam_cal is not None:
-            check_range("floor_lam_cal", self.floor_lam_cal, 0.0, 1.0, hi_open=True)
         check_range("gate_lam_cal", self.gate_lam_cal, 0.0, 1.0, hi_open=True)
         check_range("floor_s", self.floor_s, 0.0, 60.0)
-        if self.freeze_level_db is not None:
-            check_range("freeze_level_db", self.freeze_level_db, 0.0, 60.0)
-        _check_band("level_band_hz", self.level_band_hz)
         check_range("level_floor_s", self.level_floor_s, 0.0, 60.0, lo_open=True)
-        if self.level_frontal_db is not None:
-            check_range("level_frontal_db", self.level_frontal_db, -60.0, 60.0)
-        if self.level_floor_lam is not None:
-            check_range("level_floor_lam", self.level_floor_lam, 0.0, 1.0, hi_open=True)
         check_range("level_hang_s", self.level_hang_s, 0.0, 10.0)
         check_range("level_ahead_s", self.level_ahead_s, 0.0, 10.0)
         check_range("ramp_frames", self.ramp_frames, 0.0, 1e6)
-        if not isinstance(self.ramp_over_band, bool):
-            raise ParameterError("ramp_over_band", self.ramp_over_band, "True or False")
-        if self.cal_frontal_db is not None:
-            check_range("cal_frontal_db", self.cal_frontal_db, -60.0, 60.0)
         check_int("cal_chunk", self.cal_chunk, minimum=1, maximum=10000)
         if self.cal_rear_db is not None:
             check_range("cal_rear_db", self.cal_rear_db, 0.0, 60.0)
@@ -287,12 +257,6 @@ class CalibrationParams(StftParams):
                 raise ParameterError("cal_rear_low_db", self.cal_rear_low_db,
                                      "None unless cal_rear_db, frame_q_db and frame_snr_db are set")
             check_range("cal_rear_low_db", self.cal_rear_low_db, 0.0, float(self.cal_rear_db))
-        if not isinstance(self.cal_frontal_beam, bool):
-            raise ParameterError("cal_frontal_beam", self.cal_frontal_beam, "True or False")
-        if self.level_scope not in LEVEL_SCOPE:
-            raise ParameterError("level_scope", self.level_scope, " or ".join(map(repr, LEVEL_SCOPE)))
-        if self.beam_freeze not in BEAM_FREEZE:
-            raise ParameterError("beam_freeze", self.beam_freeze, " or ".join(map(repr, BEAM_FREEZE)))
         if self.model not in MODELS:
             raise ParameterError("model", self.model, " or ".join(map(repr, MODELS)))
         _check_band("model_band_hz", self.model_band_hz)
@@ -303,7 +267,6 @@ class CalibrationParams(StftParams):
         if self.frame_q_db is not None:
             check_range("frame_q_db", self.frame_q_db, -60.0, 60.0)
         _check_band("frame_band_hz", self.frame_band_hz)
-        check_range("frame_soft_db", self.frame_soft_db, 0.0, 60.0)
         if not isinstance(self.frame_snr_quiet, bool):
             raise ParameterError("frame_snr_quiet", self.frame_snr_quiet, "True or False")
         if self.frame_level_db is not None:
@@ -345,14 +308,11 @@ def _check_band(name: str, band) -> None:
 
 
 def calibration_init(n_bins: int) -> CalibrationState:
-    ones = np.ones(n_bins)  # the level rule's reference power: 1, smoothed or not
     return CalibrationState(avg=np.zeros((3, n_bins), dtype=complex), r_last=np.ones(n_bins, dtype=complex),
-                            raw_last=np.ones(n_bins, dtype=complex),
-                            n_frames=0, counts=np.zeros(n_bins), q_bin=gate_init(n_bins),
-                            q_band=gate_init(n_bins), q_level=GateState(pf=np.zeros(n_bins), pb=ones), q_front=gate_init(n_bins),
-                            last_loud=np.full(n_bins, -(10**9)), pend_x=np.zeros((0, 3, n_bins), dtype=complex),
-                            pend_card=np.zeros((0, n_bins), dtype=bool), pend_loud=np.zeros((0, n_bins), dtype=bool),
-                            q_cal=gate_init(n_bins), r_dir=np.ones(n_bins, dtype=complex))
+                            raw_last=np.ones(n_bins, dtype=complex), n_frames=0, counts=np.zeros(n_bins),
+                            q_bin=gate_init(n_bins), q_band=gate_init(n_bins),
+                            pend_x=np.zeros((0, 3, n_bins), dtype=complex), pend_card=np.zeros((0, n_bins), dtype=bool),
+                            r_dir=np.ones(n_bins, dtype=complex))
 
 
 def _band(p: CalibrationParams, fs: int, band_hz: tuple[float, float] | None = None) -> slice:
@@ -384,11 +344,10 @@ def _pending(state: CalibrationState, n_ahead: int):
     """The state's pending frames, padded at the stream start to ``n_ahead`` frozen empty ones."""
     pad = n_ahead - state.pend_x.shape[0]
     if pad <= 0:
-        return state.pend_x, state.pend_card, state.pend_loud
+        return state.pend_x, state.pend_card
     K = state.pend_x.shape[2]
     return (np.concatenate([np.zeros((pad, 3, K), dtype=complex), state.pend_x]),
-            np.concatenate([np.ones((pad, K), dtype=bool), state.pend_card]),
-            np.concatenate([np.zeros((pad, K), dtype=bool), state.pend_loud]))
+            np.concatenate([np.ones((pad, K), dtype=bool), state.pend_card]))
 
 
 def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, n_ahead: int,
@@ -399,7 +358,7 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     that a talker's onset and decay around a loud frame are not learned either; ``frame_snr_db``'s share
     of the rule (:func:`_frame_snr_share`); the block's own frames' weights, not held, until the first frame
     the rule weighs below 1 since the stream start (0 from there on); the block's frames where the rule
-    hears the talker or its hold after it, at the share's upper half (beta's mask, no look ahead).
+    hears the talker or its hold after it, at the share's upper half (the DAS weight's mask, no look ahead).
     ``changes`` gets the new state."""
     w, changes["q_frame"], talker, power = _frame_rule(X1, X2, state, p, fs=fs, delay=delay)
     if p.frame_level_db is not None:  # a frame far above the noise floor is not learned either
@@ -418,8 +377,8 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
     seq = np.concatenate([tail, w])
     changes["w_tail"] = seq[len(w):]
     held = _held(seq, n_hang, n_ahead, n_taper)[:len(w)]
-    # the block's frames the rule heard the talker in or in the hold after (no look ahead: for beta, which
-    # cannot wait; beam_freeze="level")
+    # the block's frames the rule heard the talker in or in the hold after (no look ahead: for the DAS
+    # weight's mask, which cannot wait)
     talking = np.lib.stride_tricks.sliding_window_view(seq[n_taper + n_ahead:], n_hang + 1).min(axis=1)[:len(w)] < 1.0
     # the block's own frames until the talker is first heard (a stream starts on the noise: what the DAS weight
     # may learn at once, mix_fast_cells); nothing after
@@ -443,7 +402,7 @@ def _frame_weights(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs:
             quiet_frames = ~near & ~np.isnan(quiet_power)
     kappa, changes["snr"] = _frame_snr_share(talker, power, state.snr, p, fs=fs, quiet=quiet_frames,
                                              quiet_power=quiet_power)
-    return held, kappa, now, talking & (kappa >= 0.5)  # at low input SNR beta keeps its own gate
+    return held, kappa, now, talking & (kappa >= 0.5)  # at low input SNR the cardioid rules' mask alone
 
 
 def _held(seq: np.ndarray, n_hang: int, n_ahead: int, n_taper: int) -> np.ndarray:
@@ -485,8 +444,7 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet
     ``frame_band_hz`` in the frames the rule marks as the talker's and in the others; their ratio is
     ``(S + N) / N`` of the talker's frames -- the input SNR from ~10 dB up, ~3-5 dB at 0 dB.  Why: the
     speech x noise cross terms that make an estimate learned during speech differ between ``s + n`` and
-    ``s - n`` are masked by the noise at low input SNR (issue 16 asks for <= -30 dB of jitter from 15 dB
-    up), while there the cells a talker leaves to the noise are most of a frame and worth most (a single
+    ``s - n`` are masked by the noise at low input SNR, while there the cells a talker leaves to the noise are most of a frame and worth most (a single
     plane wave's null: 20-25 dB at 0 dB input).  Until both kinds of frame were seen: the frame rule.
 
     ``quiet (F,)`` / ``quiet_power (F,)`` (``frame_snr_quiet``): the noise's average runs over these frames and
@@ -534,104 +492,29 @@ def _frame_snr_share(talker, power, snr, p: CalibrationParams, *, fs: int, quiet
     return kappa, state
 
 
-def _learning_mask(card: np.ndarray, loud: np.ndarray, last: np.ndarray, *, n_hang: int, n_ahead: int):
-    """Which frames the averages skip, from the rules' decisions over ``n_ahead + F`` frames.
-
-    ``card``, ``loud`` ``(D + F, K)``: the cardioid rules' and the level rule's decisions for
-    the ``D = n_ahead`` pending frames and the block's ``F``; ``last (K,)``: the frame the level
-    rule last fired, re the first pending frame.  A frame is skipped where a cardioid rule
-    froze it or the level rule fired from ``n_hang`` frames before it to ``n_ahead`` after it.
-
-    Returns ``(skip (F, K)`` for the first ``F`` of the frames (the ones averaged now),
-    ``level_now (F, K)``: the level rule's part for the block's frames without the look ahead
-    (what beta and the DAS mix, which cannot wait, use), ``last`` re the next block's first
-    pending frame).
-    """
-    n = loud.shape[0]
-    F = n - n_ahead
-    idx = np.arange(n)[:, None]
-    lasts = np.maximum.accumulate(np.where(loud, idx, last[None, :]), axis=0)
-    after = idx - lasts <= n_hang  # fired within n_hang frames before (or at) the frame
-    cs = np.concatenate([np.zeros((1, loud.shape[1])), np.cumsum(loud, axis=0)])
-    before = cs[n_ahead + 1:n + 1] - cs[:F] > 0  # fired within n_ahead frames after the frame
-    skip = card[:F] | after[:F] | before
-    new_last = lasts[F - 1] - F if F else last - F
-    return skip, after[n_ahead:], new_last
-
-
-def _level_sum(e: np.ndarray, p: CalibrationParams, fs: int) -> np.ndarray:
-    """The level rule's power per cell ``(F, K)``: over ``level_band_hz`` without the bin and its
-    neighbours (``level_scope="band"``), or of the bins :data:`LEVEL_NEAR` away (``"bin"``)."""
-    if p.level_scope == "bin":
-        return _shift_sum(e, LEVEL_NEAR)
-    return _leave_out_sum(e, _band(p, fs, p.level_band_hz))
-
-
-def _level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, lam: float, frontal=None):
-    """The level rule: ``(fires (F, K), state changes)``, True where more than the noise is present.
-
-    The power of both mics over ``level_band_hz`` (leaving out the bin and its neighbours, as the
-    other rules do: selecting on a cell's own power would bias its averages), one-pole smoothed
-    (``lam``), against its running minimum over ``level_floor_s`` (the noise floor, minimum
-    statistics); fires ``freeze_level_db`` above it.  The hold before and after is
-    :func:`_learning_mask`'s.
-    """
-    F, K = X1.shape
-    if p.freeze_level_db is None:
-        return np.zeros((F, K), dtype=bool), {}
-    e = X1.real**2 + X1.imag**2 + X2.real**2 + X2.imag**2
-    n_window = max(1, int(math.ceil(float(p.level_floor_s) * fs / int(p.hop))))
-    floor_lam = None if p.level_floor_lam is None else float(p.level_floor_lam)
-    rule = dict(lam=lam, n_window=n_window, cap=math.inf, floor_lam=floor_lam)
-    band = _level_sum(e, p, fs)
-    # the filter bank's first frames hold part of a window of signal: too quiet for a floor
-    n_start = -(-int(p.frame_len) // int(p.hop)) - 1
-    m = max(0, n_start - state.n_frames)
-    if m >= F:
-        return np.ones((F, K), dtype=bool), {}
-    gate = state.q_level
-    if state.n_frames <= n_start:  # the smoother starts at the first full frame's level, not at 0
-        gate = dataclasses.replace(gate, pf=band[m].copy(),
-                                   sf=None if floor_lam is None else band[m].copy(), sb=gate.pb)
-    loud, q = power_ratio_gate(band[m:], np.ones_like(band[m:]), state=gate, gate_db=float(p.freeze_level_db),
-                               **rule)
-    if frontal is not None:  # loud *and* from the front: the talker, not a swing of rear/side/diffuse noise
-        loud &= frontal[m:]
-    return np.concatenate([np.ones((m, K), dtype=bool), loud]), {"q_level": q}
-
-
 def _freeze(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, band: slice):
-    """``(cardioid rules (F, K), level rule (F, K), state changes)``: True where the averages stop.
+    """``(cardioid rules (F, K), state changes)``: True where the averages stop.
 
     Two cardioid-ratio rules (see the module docstring), neither using the bin's own noise:
     per bin from its neighbours 2 and 3 bins away (outside the Hamming main lobe), and for
-    the whole band ``fit_band_hz`` leaving out the bin and its two neighbours; and the level
-    rule (:func:`_level_rule`).
+    the whole band ``fit_band_hz`` leaving out the bin and its two neighbours.
     """
     ph = np.exp(-1j * bin_omega(int(p.frame_len)) * delay)
     cF, cB = X1 - ph * X2, X2 - ph * X1
     eF, eB = cF.real**2 + cF.imag**2, cB.real**2 + cB.imag**2
     n_window = int(math.ceil(float(p.floor_s) * fs / int(p.hop))) if p.floor_s > 0 else 0
-    rule = dict(lam=float(p.gate_lam_cal), n_window=n_window,
-                floor_lam=None if p.floor_lam_cal is None else float(p.floor_lam_cal))
+    rule = dict(lam=float(p.gate_lam_cal), n_window=n_window)
     near = (-3, -2, 2, 3)
     per_bin, q = power_ratio_gate(_shift_sum(eF, near), _shift_sum(eB, near), state=state.q_bin,
                                   gate_db=float(p.freeze_db), **rule)
     whole, w = power_ratio_gate(_leave_out_sum(eF, band), _leave_out_sum(eB, band), state=state.q_band,
                                 gate_db=float(p.freeze_band_db), **rule)
-    frontal, changes = None, {}
-    if p.level_frontal_db is not None and p.freeze_level_db is not None:
-        pF, pB = ((_leave_out_sum(eF, band), _leave_out_sum(eB, band)) if p.level_scope == "band"
-                  else (_shift_sum(eF, LEVEL_NEAR), _shift_sum(eB, LEVEL_NEAR)))
-        frontal, changes["q_front"] = power_ratio_gate(
-            pF, pB, state=state.q_front,
-            gate_db=float(p.level_frontal_db), lam=float(p.gate_lam_cal), n_window=0)
-    loud, level_changes = _level_rule(X1, X2, state, p, fs=fs, lam=float(p.gate_lam_cal), frontal=frontal)
-    return per_bin | whole, loud, {"q_bin": q, "q_band": w, **changes, **level_changes}
+    return per_bin | whole, {"q_bin": q, "q_band": w}
 
 
 def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float):
-    """The frame rule: ``(weights (F,), smoother state)``, how much each frame may be learned from.
+    """The frame rule: ``(weights (F,), smoother state, talker (F,), power (F,))``, how much each frame may be
+    learned from.
 
     ``q = 10 log10(P_F / P_B)``, the forward/backward cardioid powers summed over ``frame_band_hz``
     (1-4 kHz: 48 bins, where an uncalibrated 1 dB / 5 deg pair still has a backward null ~15 dB deep)
@@ -639,10 +522,9 @@ def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     incoherent field gives ~0 dB (+-1 dB over 48 bins), a rear source less, the talker at 45 deg up
     to ~+13 dB.  Level-free (babble's and a machine's level swings do not move it) and one decision
     for the whole frame: the talker is broadband, and where it is absent ``s + n`` and ``s - n`` are
-    the same up to sign in every bin (issue 16).  The weight is 1 below ``frame_q_db -
-    frame_soft_db``, 0 above ``frame_q_db``, linear in dB between (``frame_soft_db = 0``: a hard
-    threshold): a frame near the threshold, where the talker x noise cross term decides on which side
-    ``q`` falls, then weighs little in either run instead of all in one and nothing in the other.
+    the same up to sign in every bin.  The weight is 1 below ``frame_q_db``, 0 from it up.  Also
+    returned: where the rule hears the talker ``(F,)`` and the front mic's band power ``(F,)`` (over
+    ``frame_band_hz``, or from ``frame_snr_low_hz`` up to its upper edge) for the SNR share.
     """
     bands = [_band(p, fs, p.frame_band_hz)]
     if p.frame_low_hz is not None:  # the band below, judged on its own (a voiced syllable's energy lies there)
@@ -658,8 +540,8 @@ def _frame_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     sf = smooth_frames(pf, float(p.gate_lam_cal), gate.pf)
     sb = smooth_frames(pb, float(p.gate_lam_cal), gate.pb)
     q = 10.0 * np.log10((sf + TINY) / (sb + TINY)).max(axis=1)  # the talker's if any band says so
-    top, width = float(p.frame_q_db), float(p.frame_soft_db)
-    w = (q < top).astype(float) if width <= 0 else np.clip((top - q) / width, 0.0, 1.0)
+    top = float(p.frame_q_db)
+    w = (q < top).astype(float)
     new = GateState(pf=sf[-1].copy(), pb=sb[-1].copy(), sf=gate.sf, sb=gate.sb) if len(q) else gate
     # the front mic's power for the SNR share: over frame_band_hz, or from frame_snr_low_hz up to its upper edge
     a = X1[:, bands[0] if p.frame_snr_low_hz is None else _band(p, fs, (float(p.frame_snr_low_hz), p.frame_band_hz[1]))]
@@ -678,10 +560,7 @@ def _frame_level_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, 
     never reaches the threshold.  A level rule cannot tell the talker from a swing of the noise, but a
     false alarm only costs frames learned; the ratio still covers a talker at the noise's level.
     The filter bank's first frames hold part of a window of signal, too quiet for a floor: they stay out of
-    it and are left to the ratio (counted loud, they would end the start-up weights' learning at once).
-    Graded below the threshold (tried, 2 December 2026): the averages are power-weighted, and a loud noise
-    frame is where a talker's cross term weighs least; grading 6-20 dB raised ``phone``'s rows above -30 dB
-    (``../shared/data``, with ``cal_rear_low_db=6``) from 10 to 12 and cost factory 1.2-1.7 dB."""
+    it and are left to the ratio (counted loud, they would end the start-up weights' learning at once)."""
     lo = float(p.frame_low_hz) if p.frame_low_hz is not None else float(p.frame_band_hz[0])
     k = _band(p, fs, (lo, float(p.frame_band_hz[1])))
     e = (X1[:, k].real**2 + X1[:, k].imag**2 + X2[:, k].real**2 + X2[:, k].imag**2).sum(axis=1, keepdims=True)
@@ -813,11 +692,10 @@ def calibration_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, f
     """Estimate ``r_hat`` for the frames of one block.
 
     Returns ``(r_hat (F, K), frozen (F, K), state)``, ``frozen`` the mask the DAS weight uses
-    (:func:`calibration_masks_step`'s cardioid mask, or-ed with its level mask unless
-    ``beam_freeze="cardioid"``).
+    (:func:`calibration_masks_step`'s cardioid mask or-ed with its talker mask).
     """
-    r_hat, card, loud, state = calibration_masks_step(X1, X2, state, p, fs=fs, delay=delay)
-    return r_hat, card if p.beam_freeze == "cardioid" else card | loud, state
+    r_hat, card, talker, state = calibration_masks_step(X1, X2, state, p, fs=fs, delay=delay)
+    return r_hat, card | talker, state
 
 
 def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float,
@@ -836,81 +714,68 @@ def calibration_masks_step(X1, X2, state: CalibrationState, p: CalibrationParams
 
     Returns
     -------
-    r_hat : complex (F, K); cardioid : bool (F, K), the cardioid rules' decisions; level : bool (F, K),
-    the level rule and its hangover (no look ahead: what beta and the DAS weight, which cannot wait,
-    use); new state.  With ``learn_out`` (a list), a pair is appended to it: the weights ``(F, K)`` in
-    ``[0, 1]`` with which the averages learned the frames they reached in this block (``level_ahead_s``
-    behind the block's), and the rules' weights of the block's own frames without hold or look ahead
-    (the frame rule's until it first hears the talker, or where neither mask froze them):
-    ``mix_model="delayed"`` learns the DAS weight on the first, and on the second while the first has few
-    cells (``mix_fast_cells``).
+    r_hat : complex (F, K); cardioid : bool (F, K), the cardioid rules' decisions (all False with the frame
+    rule); talker : bool (F, K), the block's frames where the frame rule hears the talker or holds after it,
+    at an SNR share of at least 0.5 (no look ahead: what the DAS weight, which cannot wait, uses; all False
+    without the frame rule); new state.  With ``learn_out`` (a list), a pair is appended to it: the weights
+    ``(F, K)`` in ``[0, 1]`` with which the averages learned the frames they reached in this block
+    (``level_ahead_s`` behind the block's), and the rules' weights of the block's own frames without hold or
+    look ahead (the frame rule's until it first hears the talker, or where the cardioid rules did not freeze
+    them): ``mix_model="delayed"`` learns the DAS weight on the first, and on the second while the first has
+    few cells (``mix_fast_cells``).
     """
-    if (p.cal_frontal_db is None and p.cal_rear_db is None) or X1.shape[0] == 0:
+    if p.cal_rear_db is None or X1.shape[0] == 0:
         return _masks_step(X1, X2, state, p, fs=fs, delay=delay, learn_out=learn_out)
-    # the calibrated direction rule needs the estimate so far: chunks of cal_chunk frames counted from
-    # the stream start (so blocks of any size give the same chunks), each judged with the estimate
-    # applied at its start (state.r_dir)
+    # the rear rule needs the estimate so far: chunks of cal_chunk frames counted from the stream start (so
+    # blocks of any size give the same chunks), each judged with the estimate applied at its start (state.r_dir)
     F, n = X1.shape[0], int(p.cal_chunk)
     parts, lo = [], 0
     while lo < F:
         if state.n_frames % n == 0:
             state = dataclasses.replace(state, r_dir=state.r_last.copy())
         hi = min(F, lo + n - state.n_frames % n)
-        extra, rear, changes = _calibrated_frontal(X1[lo:hi], X2[lo:hi], state, p, delay=delay, fs=fs)
+        rear, changes = _rear_rule(X1[lo:hi], X2[lo:hi], state, p, delay=delay)
         state = dataclasses.replace(state, **changes)
-        r, card, loud, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, extra=extra,
-                                           rear=rear, learn_out=learn_out)
-        parts.append((r, card, loud))
+        r, card, talker, state = _masks_step(X1[lo:hi], X2[lo:hi], state, p, fs=fs, delay=delay, rear=rear,
+                                             learn_out=learn_out)
+        parts.append((r, card, talker))
         lo = hi
     return (*(np.concatenate([q[i] for q in parts]) for i in range(3)), state)
 
 
-def _calibrated_frontal(X1, X2, state: CalibrationState, p: CalibrationParams, *, delay: float, fs: int):
-    """The calibrated direction rules: ``(fires (F, K) or None, rear (F, K) or None, state changes)``.
+def _rear_rule(X1, X2, state: CalibrationState, p: CalibrationParams, *, delay: float):
+    """The rear rule: ``(rear (F, K), state changes)`` -- where the cell is dominated from behind, ``P_B / P_F``
+    above ``cal_rear_db`` (a talker in front at ``rho`` below such a rear source raises the ratio by ~``rho``
+    plus its cardioid contrast, so a strict threshold certifies that the talker is far below the noise there).
 
-    ``fires``: True where a frontal source dominates (``cal_frontal_db``); ``rear``: True where the
-    band is dominated from behind, ``P_B / P_F`` above ``cal_rear_db`` (a talker in front at ``rho``
-    below such a rear source raises the ratio by ~``rho`` plus its cardioid contrast, so a strict
-    threshold certifies that the talker is far below the noise there).
-
-    The forward/backward cardioids of the *calibrated* pair ``X1, X2 / r`` (``r``: the estimate
-    applied at the start of the chunk of ``cal_chunk`` frames, ``state.r_dir``), powers over the bins :data:`LEVEL_NEAR` away
-    (``level_scope="bin"``) or over ``fit_band_hz`` without the bin and its neighbours (``"band"``),
-    one-pole smoothed (``gate_lam_cal``); fires where ``P_F / P_B`` exceeds ``cal_frontal_db``
-    (absolute: 0 dB is a diffuse field, a rear source is below it).  Once calibrated, the
-    backward cardioid blocks the look half plane at every frequency, so the ratio tells a
-    talker from noise at every input level (uncalibrated, a 1 dB / 5 deg mismatch pulls every
-    source's ratio towards 0 dB at low frequencies).
+    The forward/backward cardioids of the *calibrated* pair ``X1, X2 / r`` (``r``: the estimate applied at the
+    start of the chunk of ``cal_chunk`` frames, ``state.r_dir``; uncalibrated, a 1 dB / 5 deg mismatch pulls
+    every source's ratio towards 0 dB at low frequencies), powers over the bins :data:`LEVEL_NEAR` away,
+    one-pole smoothed (``gate_lam_cal``).  ``rear``: with ``cal_rear_soft_db > 0`` the smoothed ratio in dB
+    (smoother ``cal_rear_lam``, graded by :func:`_rear_weight`); else bool over ``cal_rear_db``, or with
+    ``cal_rear_low_db`` uint8 levels (2: over ``cal_rear_db``, 1: over ``cal_rear_low_db`` only).
     """
     ph = np.exp(-1j * bin_omega(int(p.frame_len)) * delay)
     X2c = X2 / state.r_dir[None, :]
     cF, cB = X1 - ph * X2c, X2c - ph * X1
     eF, eB = cF.real**2 + cF.imag**2, cB.real**2 + cB.imag**2
-    if p.level_scope == "bin":
-        pF, pB = _shift_sum(eF, LEVEL_NEAR), _shift_sum(eB, LEVEL_NEAR)
-    else:
-        band = _band(p, fs)
-        pF, pB = _leave_out_sum(eF, band), _leave_out_sum(eB, band)
+    pF, pB = _shift_sum(eF, LEVEL_NEAR), _shift_sum(eB, LEVEL_NEAR)
     rule = dict(lam=float(p.gate_lam_cal), n_window=0)
-    fires = rear = None
     changes = {}
-    if p.cal_frontal_db is not None:
-        fires, changes["q_cal"] = power_ratio_gate(pF, pB, state=state.q_cal, gate_db=float(p.cal_frontal_db), **rule)
-    if p.cal_rear_db is not None and p.cal_rear_soft_db > 0:  # graded: the smoothed ratio itself (dB), as the gate
-        q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
+    q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
+    if p.cal_rear_soft_db > 0:  # graded: the smoothed ratio itself (dB), as the gate
         # cal_rear_lam: a slower smoother averages the talker x noise cross term in P_F over more frames
         lam = rule["lam"] if p.cal_rear_lam is None else float(p.cal_rear_lam)
         # the state's pf holds P_B and pb holds P_F, as power_ratio_gate(pB, pF) of the hard rule stores them
         sb, sf = smooth_frames(pB, lam, q.pf), smooth_frames(pF, lam, q.pb)
         rear = 10.0 * np.log10((sb + TINY) / (sf + TINY))
         changes["q_rear"] = GateState(pf=sb[-1].copy(), pb=sf[-1].copy()) if len(rear) else q
-    elif p.cal_rear_db is not None:
-        q = state.q_rear if state.q_rear is not None else gate_init(pF.shape[1])
-        rear, changes["q_rear"] = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_db), **rule)
-        if p.cal_rear_low_db is not None:  # 2: over cal_rear_db, 1: over cal_rear_low_db only (same smoothing)
-            low, _ = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_low_db), **rule)
-            rear = rear.astype(np.uint8) + low
-    return fires, rear, changes
+        return rear, changes
+    rear, changes["q_rear"] = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_db), **rule)
+    if p.cal_rear_low_db is not None:  # 2: over cal_rear_db, 1: over cal_rear_low_db only (same smoothing)
+        low, _ = power_ratio_gate(pB, pF, state=q, gate_db=float(p.cal_rear_low_db), **rule)
+        rear = rear.astype(np.uint8) + low
+    return rear, changes
 
 
 def _rear_weight(ratio_db: np.ndarray, kappa, p: CalibrationParams) -> np.ndarray:
@@ -935,10 +800,10 @@ def _rear_weight(ratio_db: np.ndarray, kappa, p: CalibrationParams) -> np.ndarra
     return np.maximum(w, (ratio_db > float(p.cal_rear_low_db)) * (1.0 - kappa[:, None]))
 
 
-def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, extra=None,
-                rear=None, learn_out: list | None = None):
-    """:func:`calibration_masks_step` for one chunk; ``extra (F, K)``: more cells the averages skip (or None);
-    ``rear (F, K)``: cells the averages learn from whatever the other rules say (or None)."""
+def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: int, delay: float, rear=None,
+                learn_out: list | None = None):
+    """:func:`calibration_masks_step` for one chunk; ``rear (F, K)``: the rear rule's decisions
+    (:func:`_rear_rule`; cells the averages learn from whatever the other rules say) or None."""
     F, K = X1.shape
     if F == 0:
         none = np.zeros((0, K), dtype=bool)
@@ -946,30 +811,24 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
             learn_out.append((np.zeros((0, K)), np.zeros((0, K))))
         return np.ones((0, K), dtype=complex), none, none, state
     band = _band(p, fs)
-    card, loud, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
-    # the calibrated direction rule stops the averages only (beta and the DAS weight keep card / level),
-    # or (cal_frontal_beam) joins the level rule: held, looked ahead, and in the masks beam_freeze names
+    card, changes = _freeze(X1, X2, state, p, fs=fs, delay=delay, band=band)
     card_learn = card
-    if extra is not None and p.cal_frontal_beam:
-        loud = loud | extra
-    elif extra is not None:
-        card_learn = card | extra
     if p.frame_q_db is not None and p.frame_snr_db is None:  # the frame rule replaces the cardioid rules (with
         card_learn = np.zeros_like(card_learn)  # frame_snr_db they stay, for low SNR); the start's placeholders stay frozen
     x = np.stack([X1.real**2 + X1.imag**2, X2.real**2 + X2.imag**2, X2 * np.conj(X1)], axis=1)
-    # the averages run level_ahead_s (D frames) behind the input, so the level rule can freeze
+    # the averages run level_ahead_s (D frames) behind the input, so the frame rule can freeze
     # a frame for what comes after it too (a talker's onset rises over several frames)
     n_ahead = p.look_ahead_frames(fs)
-    pend_x, pend_card, pend_loud = _pending(state, n_ahead)
-    xs, cards, louds = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn]), np.concatenate([pend_loud, loud])
-    learn_frozen, level_now, changes["last_loud"] = _learning_mask(
-        cards, louds, state.last_loud, n_hang=int(round(float(p.level_hang_s) * fs / int(p.hop))), n_ahead=n_ahead)
+    pend_x, pend_card = _pending(state, n_ahead)
+    xs, cards = np.concatenate([pend_x, x]), np.concatenate([pend_card, card_learn])
+    learn_frozen = cards[:F]
+    talker = np.zeros((F, K), dtype=bool)
     frame_w = kappa = None
-    if p.frame_q_db is not None:  # the frame rule's weights, held like the level rule; beta's mask gets its talker
+    if p.frame_q_db is not None:  # the frame rule's held weights; the DAS weight's mask gets its talker frames
         frame_w, kappa, frame_now, talking = _frame_weights(X1, X2, state, p, fs=fs, delay=delay, n_ahead=n_ahead,
                                                             changes=changes)
         card = np.zeros_like(card)
-        level_now = level_now | talking[:, None]
+        talker = talker | talking[:, None]
     rear_now = None
     if rear is not None:  # judged on the block's frames, which the averages reach n_ahead frames later
         pend_rear = (state.pend_rear if state.pend_rear is not None
@@ -982,7 +841,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
             over = rear_now > 0
         learn_frozen = learn_frozen & ~over
         changes["pend_rear"] = rears[F:]
-    changes.update(pend_x=xs[F:], pend_card=cards[F:], pend_loud=louds[F:])
+    changes.update(pend_x=xs[F:], pend_card=cards[F:])
     # per-bin step: 1/n for the n-th active frame (a running mean) until it reaches the one-pole's
     # 1 - lam, then 1 - lam; 0 where frozen
     active = ~learn_frozen
@@ -991,7 +850,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
         counts = state.counts + np.cumsum(active, axis=0)
         c = np.where(active, np.maximum(1.0 / np.maximum(counts, 1), one_pole), 0.0)
         if learn_out is not None:
-            learn_out.append((active.astype(float), (~(card | level_now)).astype(float)))
+            learn_out.append((active.astype(float), (~(card | talker)).astype(float)))
     else:  # weighted: the running mean of the weights' sum until it reaches the one-pole, times the weight
         if kappa is None:
             wt = active * frame_w[:, None]
@@ -1025,7 +884,7 @@ def _masks_step(X1, X2, state: CalibrationState, p: CalibrationParams, *, fs: in
     r_hat = held[np.cumsum(is_update)]
     values = dict(vars(state))
     values.update(avg=a, r_last=held[-1].copy(), raw_last=raw_last, n_frames=state.n_frames + F, counts=counts[-1].copy(), **changes)
-    return r_hat, card, level_now, CalibrationState(**values)
+    return r_hat, card, talker, CalibrationState(**values)
 
 
 def _estimate_updates(avg, n_upd, state: CalibrationState, p: CalibrationParams, *, fs: int, band: slice,
@@ -1033,7 +892,6 @@ def _estimate_updates(avg, n_upd, state: CalibrationState, p: CalibrationParams,
     """``(raw, applied)`` estimates ``(U, K)`` of the ``U`` update frames from their averages ``avg (U, 3, K)``
     and active frame counts ``n_upd (U, K)``: per bin or by the model (``model``; its last fit goes into
     ``changes["theta"]``), then the start-up ramp ``r^min(1, n / ramp_frames)``."""
-    K = avg.shape[2]
     max_slope = 2 * math.pi * delay / int(p.frame_len)
     if p.model == "hp1":
         r_raw, changes["theta"] = model_estimate(avg, n_upd, state.theta, p, fs=fs, band=band, max_slope=max_slope)
@@ -1047,10 +905,6 @@ def _estimate_updates(avg, n_upd, state: CalibrationState, p: CalibrationParams,
                                        phase_leak=float(p.phase_leak))
     # shrunk towards the nominal 1 while a bin has few active frames n: r^min(1, n / ramp_frames)
     # (a few frames' estimate is noisy, and whatever of the talker leaks into them weighs 1/n)
-    if p.ramp_over_band and p.model == "bins":  # the estimate averages k +- half: its noise goes with their count
-        k = np.arange(K)
-        half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
-        n_upd = _smooth_bins(n_upd, half) * (np.minimum(k + half + 1, K) - np.maximum(k - half, 0))
     r_upd = np.exp(np.minimum(1.0, n_upd / float(p.ramp_frames)) * np.log(r_raw)) if p.ramp_frames > 0 else r_raw
     return r_raw, r_upd
 
@@ -1078,15 +932,16 @@ class MicCalibration(fast_frames.FusedStreaming, StftEnhancer):
     estimate_every : frames between recomputations of ``r_hat`` (default 4).
     freeze_db, freeze_band_db : freeze thresholds of the per-bin and band rules (default 2 and 1 dB above
         the 1-s floor).
-    gate_lam_cal, floor_lam_cal, floor_s : smoothing of the freeze ratios per frame (0.7), of the
-        floor's ratio (None: the same), and the floor's window (1 s).
-    freeze_level_db, level_band_hz, level_floor_s, level_hang_s, level_ahead_s, ramp_frames : the
-        talker-blind mode (module docstring; None / 200-7000 Hz / 3 s / 0.1 s / 0.1 s / 0: off).
-    level_floor_lam, level_frontal_db, beam_freeze : its variants (None / None / ``"both"``).
-    cal_frontal_db, level_scope, cal_frontal_beam, cal_chunk : the calibrated direction rule (module
-        docstring; None: off / ``"band"`` / False / 8 frames).
-    frame_q_db, frame_band_hz, frame_soft_db, frame_snr_db, frame_low_hz, frame_level_db, frame_snr_quiet : the
-        frame rule (module docstring; None: off / 1-4 kHz / 0 dB / None / None / None / False).
+    gate_lam_cal, floor_s : smoothing of the freeze ratios per frame (0.7) and the floor's window (1 s).
+    frame_q_db, frame_band_hz, frame_low_hz, frame_level_db, level_floor_s, frame_start_s : the frame rule
+        (module docstring; None: off / 1-4 kHz / None / None / 3 s / 0 s).
+    level_hang_s, level_ahead_s, frame_hold_taper_s : its hold after and before a talker frame and the
+        hold's taper (0.1 s / 0.1 s / 0 s).
+    frame_snr_db, frame_snr_frames, frame_snr_low_hz, frame_snr_quiet, frame_snr_quiet_ratio,
+    frame_snr_clip_db : the SNR share (:func:`_frame_snr_share`; None: off / 0 / None / False / False / None).
+    cal_rear_db, cal_rear_low_db, cal_rear_soft_db, cal_rear_lam, cal_chunk : the rear rule
+        (:func:`_rear_rule`; None: off / None / 0 dB / None / 8 frames).
+    ramp_frames : the start-up ramp's length in active frames (0: none).
     model, model_band_hz, model_iter, model_prior, model_robust : what ``r_hat`` is (``"bins"``: per-bin
         averages; ``"hp1"``: the 4-parameter sensor model fitted over 100-4000 Hz, 3 Gauss-Newton steps per
         update, prior scale 1000, Cauchy weights with a 0.05 floor (None: plain least squares); module docstring).

@@ -5,9 +5,9 @@ importing an algorithm module).
 level-free decision per frame from the forward/backward cardioid ratio over 250 Hz-4 kHz, held 0.2 s after and
 0.24 s before the talker with tapered edges -- on which the calibration, beta (one least-squares value per bin)
 and the DAS weight learn 0.24 s late; the rules' remaining edges graded; at low estimated input SNR the
-cardioid rules again (there the noise masks the talker).  It is ``calibration_jitter --frame-settled``
-(:data:`benchmarks.studies.calibration_jitter.FRAME_SETTLED`, where each piece and its measurement is named; the
-record of how the pieces were chosen is ``docs/history/2026-12-calibration-talker-blind.md``).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
+cardioid rules again (there the noise masks the talker).  It is ``calibration_jitter --blind`` (each piece:
+:mod:`enhancers.beam.mic_calibration`, :mod:`enhancers.beam.subband_eb`; the record of how the pieces were
+chosen is ``docs/history/2026-12-calibration-talker-blind.md``).  ``EB_ROBUST_BLIND_SS`` is its ``ss``
 stage: the gain averaged over neighbouring bins and frames, so that ss's own gain moves less with the noise.
 
 Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` against ``eb-robust-ss``:
@@ -29,17 +29,16 @@ __all__ = ["EB_ROBUST_BLIND", "EB_ROBUST_BLIND_SS"]
 
 EB_ROBUST_BLIND = {
     # the frame rule and its hold (mic_calibration._frame_rule, _held)
-    "freeze_level_db": None, "frame_q_db": 5.0, "frame_low_hz": 250.0, "frame_level_db": 20.0,
+    "frame_q_db": 5.0, "frame_low_hz": 250.0, "frame_level_db": 20.0,
     "level_hang_s": 0.2, "level_ahead_s": 0.24, "frame_hold_taper_s": 0.05, "frame_start_s": 0.13,
     # the SNR share: at low estimated input SNR the cardioid rules learn again
     "frame_snr_db": (8.0, 14.0), "frame_snr_frames": 10.0, "frame_snr_quiet": True, "frame_snr_quiet_ratio": True,
     "frame_snr_low_hz": 250.0, "frame_snr_clip_db": 15.0,
     # the calibration: the parametric sensor model, its start-up ramp, rear-dominated cells graded
-    "model": "hp1", "ramp_frames": 40.0, "ramp_over_band": True, "level_scope": "bin",
+    "model": "hp1", "ramp_frames": 40.0,
     "cal_rear_db": 10.0, "cal_rear_low_db": 6.0, "cal_rear_soft_db": 3.0, "cal_rear_lam": 0.8,
     # beta: least squares per bin on the held weights, a start-up stand-in, the EQ from a fixed pattern
-    "beta_model": "delayed", "mu": 0.1, "beta_norm": "frame", "beta_fast_frames": 10.0, "eq_bound_beta": 0.0,
-    "beam_freeze": "das", "fast_blend": True,
+    "beta_model": "delayed", "mu": 0.1, "beta_fast_frames": 10.0, "eq_bound_beta": 0.0, "fast_blend": True,
     # the DAS weight: three bands, learned late, with a start-up stand-in
     "mix_model": "delayed", "mix_bands_hz": (1000.0, 4000.0), "mix_ramp_cells": 200.0, "mix_alpha0": 0.0,
     "mix_fast_cells": 500.0, "mix_fast_ramp_cells": 0.0,

@@ -5,9 +5,8 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
 
 1. :func:`enhancers.beam.mic_calibration.calibration_step` estimates the rear mic's complex
    response ``r_hat`` per bin (slow, frozen while a frontal talker dominates) and the rear
-   spectrum is divided by it; in its talker-blind mode (``freeze_level_db`` set, issue 16:
-   learning only where the talker is absent) beta and the DAS weight freeze on its masks too
-   (which ones: ``beam_freeze``);
+   spectrum is divided by it; the DAS weight learns only where the calibration's masks leave a cell
+   open (with the frame rule, ``eb-robust-blind``: where the talker is absent);
 2. :func:`enhancers.beam.subband_eb.subband_beta_step` adapts one real beta per bin on the
    calibrated spectra (gate on by default: 3 dB above the 1-s floor, as ``eb-gated``);
 3. :func:`enhancers.core.eq.look_eq_gain` equalises the look direction with the white-noise-gain
@@ -23,15 +22,10 @@ One WOLA filter bank carries every step per frame (so the latency is one frame,
    quadratic, ``(alpha - alpha*)^2 S_DD``, for an unknown ``alpha*`` in ``[0, 1]``), is
    regularised relative to the noise-only front-mic power (so a loud talker does not move
    it) and is fitted over ``2 mix_smooth_bins + 1 = 17`` neighbouring bins (~1 kHz).
-   Why (issue 12, ``phone`` preset, wind, 5 seeds x 6 SNRs; PESQ = raw P.862 of the
-   output): the former weight (prior 0, regularised by eps times the *current* frame's power,
-   per bin) sat at 0.4-0.9 in wind and fell towards the differential path with every
-   syllable.  The front end itself was near-transparent for speech (replayed speech-only
-   PESQ 4.0), but its residual noise -- the differential path's amplified wind -- came and
-   went with the speech, which ``ss``'s minimum statistics cannot follow, so
-   ``eb-robust-ss`` lost PESQ to plain ``ss`` (2.41 vs 2.50).  Oracle ``alpha = 1``: 2.56;
-   this estimator: 2.54, with babble and factory unchanged (prior 1 would give wind 2.55 but
-   babble -0.01, where the differential path is the better one in the always-frozen bins).
+   Measured (``phone`` preset, wind, 5 seeds x 6 SNRs; PESQ = raw P.862 of the output):
+   ``eb-robust-ss`` 2.54 against an oracle ``alpha = 1`` 2.56 and plain ``ss`` 2.50.  A regulariser relative to the
+   current frame's power instead would pull the weight to its prior with every syllable, and
+   noise that switches path with the speech is what ``ss``'s minimum statistics cannot follow.
 
 Processing the calibrated pair with ``eb-subband`` as a separate stage would give the
 same operation up to one more frame of delay (a WOLA round trip between the stages).
@@ -73,7 +67,6 @@ from enhancers.beam.subband_eb import SubbandBase, SubbandEbParams, subband_init
 from enhancers.core.chain import Chain
 from enhancers.kernels import frames as fast_frames
 from scenesim.errors import ParameterError
-from scenesim.validate import check_range
 
 __all__ = ["EbRobustBlindSs", "EbRobustSs", "RobustElkoBeamformer", "TalkerBlindRobustEb"]
 
@@ -116,8 +109,6 @@ class RobustElkoBeamformer(SubbandBase):
         def __post_init__(self):
             self._check_subband()
             self._check_calibration()
-            # the start-up stand-ins look ahead within the calibration's pending frames
-            check_range("fast_ahead_s", self.fast_ahead_s, 0.0, float(self.level_ahead_s))
             if not isinstance(self.calibrate, bool):
                 raise ParameterError("calibrate", self.calibrate, "True or False")
 
@@ -134,25 +125,18 @@ class RobustElkoBeamformer(SubbandBase):
         cal, sub = algo
         X1, X2 = X[0], X[1]
         record = {}
-        mix_frozen = beta_frozen = None
-        mix_learn = None
+        mix_frozen = mix_learn = None
         if self.params.calibrate:
             learn_out = [] if "delayed" in (self.params.mix_model, self.params.beta_model) else None
-            r_hat, card, level, cal = calibration_masks_step(X1, X2, cal, self.params, fs=fs,
+            r_hat, card, talker, cal = calibration_masks_step(X1, X2, cal, self.params, fs=fs,
                                                              delay=self.delay_samples(fs), learn_out=learn_out)
             X2 = X2 / r_hat
             if learn_out is not None:  # the calibration's weights of the frames it averaged now (D behind)
                 mix_learn = tuple(np.concatenate([pair[i] for pair in learn_out]) for i in range(2))
-            # the DAS mix learns only where the calibration does too (no talker); with the calibration's
-            # level rule on (the talker-blind mode of issue 16) beta freezes on the masks beam_freeze names
-            mode = self.params.beam_freeze
-            mix_frozen = card if mode == "cardioid" else card | level
-            beta_frozen = {"both": mix_frozen, "level": level, "cardioid": None, "das": None}[mode]
-            if not self.params.talker_blind:
-                beta_frozen = None
+            # the DAS mix learns only where the calibration does too (no talker); beta keeps its own gate
+            mix_frozen = card | talker
             record.update(r_hat=r_hat, frozen=mix_frozen)
-        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, beta_frozen=beta_frozen,
-                                      mix_learn=mix_learn)
+        Y, beam, sub = self._beamform(X1, X2, sub, fs, mix_frozen=mix_frozen, mix_learn=mix_learn)
         record.update(beam)
         return Y[None], (cal, sub), record
 

@@ -66,13 +66,19 @@ approximately frame by frame) from the window edges over the whole frame, so the
 broadband null of white noise at 120/135/150 deg drops from 33.3/32.1/31.6 dB to
 31.1/29.8/29.0 dB.  Without it the output is the look-direction speech shifted by 90
 degrees (inaudible, but a waveform comparison finds its best lag ~10 samples off).
-``eq_bound_beta`` (opt-in, issue 16): the noise-aware bound of the EQ is that of the fixed pattern
-``cF - b cB`` instead of the adapted one.  The talker passes through the EQ, so an EQ that follows beta
-moves the talker's path with every speech x noise cross term beta learns from: on ``phone`` (shared
-data, 2 seeds, 15-25 dB, ``benchmarks.studies.calibration_jitter --decompose``) the jitter carried by
-beta and its EQ falls from a median of -19.3 dB (worst -14.8) to -28.8 dB (worst -17.5) with ``b = 0``,
-and ``eb-robust-ss``'s SNR-I per noise rises by 0.2-0.4 dB; ``b = 1`` (the strictest bound) costs
+``eq_bound_beta`` (off by default, 0 in ``eb-robust-blind``): the noise-aware bound of the EQ is that of the
+fixed pattern ``cF - b cB`` instead of the adapted one.  The talker passes through the EQ, so an EQ that
+follows beta moves the talker's path with every speech x noise cross term beta learns from: on ``phone``
+(shared data, 2 seeds, 15-25 dB, ``python -m benchmarks.studies.calibration_jitter --decompose``) the jitter
+carried by beta and its EQ falls from a median of -19.3 dB (worst -14.8) to -28.8 dB (worst -17.5) with
+``b = 0``, and ``eb-robust-ss``'s SNR-I per noise rises by 0.2-0.4 dB; ``b = 1`` (the strictest bound) costs
 2-3 dB in factory and the hall.
+
+Pooled and delayed estimates (``eb-robust-blind``): ``mix_bands_hz`` fits the DAS weight per band from the
+cells its masks leave open (:func:`enhancers.beam.beam_pool.pooled_mix_step`), and ``mix_model="delayed"`` /
+``beta_model="delayed"`` learn the DAS weight and a least-squares beta per bin ``level_ahead_s`` late on the
+calibration's held weights (the talker's onset known before a frame is learned), with start-up stand-ins
+learned at once (``mix_fast_cells``, ``beta_fast_frames``).
 
 ``trace["beta"]``: ``(n_frames, n_bins)``, the beta applied to each frame.  Latency
 ``frame_len - 1`` samples.
@@ -88,19 +94,13 @@ from typing import ClassVar
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from enhancers.beam.beam_pool import (
-    band_onehot,
-    beta_from_cos,
-    direction_beta_step,
-    pooled_mix_step,
-)
+from enhancers.beam.beam_pool import band_onehot, beta_from_cos, pooled_mix_step
 from enhancers.core.eq import look_eq_gain
 from enhancers.core.stft_stage import (
     TINY,
     GateState,
     StftEnhancer,
     StftParams,
-    _running_min,
     bin_omega,
     gate_init,
     ratio_gate,
@@ -124,10 +124,7 @@ def closed_form_beta(theta_deg: float, omega_t) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SubbandState:
-    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history.
-
-    ``beta_model="direction"``: ``p_b`` holds the direction's averaged normaliser per band ``(B,)``.
-    """
+    """Per-bin adaptation state ``(K,)`` arrays, plus the gate's running-minimum history."""
 
     beta: np.ndarray
     p_b: np.ndarray
@@ -136,14 +133,12 @@ class SubbandState:
     alpha: np.ndarray | None = None  # (K,) das_mix: averages of Re(Yd conj(D)) and |D|^2
     p_d: np.ndarray | None = None
     p_m: np.ndarray | None = None  # (K,) das_mix: average of P_1 over the same (unfrozen) frames
-    cos_theta: np.ndarray | None = None  # (B,) beta_model="direction": cos of each band's rear direction
     mix_n: np.ndarray | None = None  # (B,) mix_bands_hz: learned cells per band (then alpha/p_d/p_m are (B,))
     mix_pend: tuple | None = None  # mix_model="delayed": the last frames' (Y, D, p1), (D, K) each, not yet judged
     mix_fast: tuple | None = None  # mix_fast_cells: the start-up weight's averages (as alpha, p_d, p_m, mix_n)
-    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open[, |X1|^2]), (D, K) each
+    beta_pend: tuple | None = None  # beta_model="delayed": the last frames' (cF, cB, p1, open), (D, K) each
     beta_ls: tuple | None = None  # beta_model="delayed": per-bin averages (S_FB, S_BB, S_11, n), (K,) each
     beta_fast: tuple | None = None  # beta_fast_frames: the start-up beta's averages (as beta_ls)
-    beta_floor_tail: np.ndarray | None = None  # beta_level_db: the last frames' smoothed |X1|^2, (W - 1, K)
     frames: int = 0  # frames seen since the stream start, before this block (the delayed models' start)
 
 
@@ -240,37 +235,6 @@ def _hand_over(quick: np.ndarray, late: np.ndarray, n: np.ndarray, n_full: float
     return np.where(n >= n_full, late, quick)
 
 
-def _level_weights(p_frames, p_now, tail, *, n_window: int, knee_db: float):
-    """``beta_level_db``: how much each judged cell may weigh, from its level over the noise floor -- ``(weights
-    (F, K), new tail)``.  The floor of frame ``i`` is the minimum of the smoothed ``|X1|^2`` over the ``n_window``
-    frames heard by then (``p_now (F, K)``, the block's, after ``tail (n_window - 1, K)``, the frames before it;
-    None at the stream start); a cell's weight is ``min(1, g floor / P)^2`` with ``P = p_frames (F, K)``, the
-    judged frame's own level, and ``g = 10^(knee_db / 10)``.  (The caller passes the larger of the cell's
-    power and its smoothed power: the smoothed one alone lags a burst's onset by a few frames, which then
-    weigh almost fully.)
-
-    Why: least squares is power-weighted, so one talker frame the frame rule missed, 20 dB over the noise,
-    outweighs a hundred noise frames (measured: a voiced ending at 20 dB local SNR below 500 Hz, heard in one
-    of Hagerman's runs only, took beta from 0.1 to 1 for the file's last 0.1 s).  Above the knee a cell's
-    share of the averages falls as ``1 / P`` instead of rising as ``P``, with no edge for the talker x noise
-    cross term to flip.
-
-    >>> import numpy as np
-    >>> w, _ = _level_weights(np.array([[1.0], [10.0], [100.0]]), np.ones((3, 1)), None, n_window=4, knee_db=10.0)
-    >>> np.round(w[:, 0], 4).tolist()      # at the floor, at the knee, 10 dB above it
-    [1.0, 1.0, 0.01]
-    """
-    K = p_now.shape[1]
-    if tail is None:
-        tail = np.full((n_window - 1, K), np.inf)
-    if p_now.shape[0] == 0:  # a block shorter than a hop
-        return np.ones(p_frames.shape), tail
-    seq = np.concatenate([tail, p_now])
-    floor = _running_min(seq, n_window)  # (F, K)
-    ratio = (10.0 ** (knee_db / 10.0) * floor + TINY) / (p_frames + TINY)
-    return np.minimum(1.0, ratio) ** 2, seq[seq.shape[0] - (n_window - 1):]
-
-
 def _clipped_recursion(keep: np.ndarray, gain: np.ndarray, w0: np.ndarray):
     """``w[l+1] = clip(w[l] keep[l] + gain[l], 0, 1)`` from ``w[0] = w0``: ``(w[0..F-1] (F, K), w[F])``."""
     out = np.empty(keep.shape)
@@ -352,8 +316,6 @@ class SubbandEbParams(StftParams):
     mix_smooth_bins: int = 0
     mix_alpha0: float = 0.0
     beta_model: str = "bin"
-    beta_bands_hz: tuple = ()
-    beta_norm: str = "frame"
     mix_bands_hz: tuple | None = None
     mix_ramp_cells: float = 0.0
     mix_model: str = "weights"
@@ -361,11 +323,8 @@ class SubbandEbParams(StftParams):
     eq_bound_beta: float | None = None
     beta_lam: float = 0.9
     beta_fast_frames: float = 0.0
-    fast_ahead_s: float = 0.0
     mix_fast_ramp_cells: float | None = None
     fast_blend: bool = False
-    beta_level_db: float | None = None
-    beta_floor_s: float = 3.0
 
     def _check_subband(self):
         self._check_stft()
@@ -400,32 +359,22 @@ class SubbandEbParams(StftParams):
 
 
     def _check_pooling(self):
-        check_choice("beta_model", self.beta_model, ("bin", "direction", "delayed"))
+        check_choice("beta_model", self.beta_model, ("bin", "delayed"))
         check_range("beta_lam", self.beta_lam, 0.0, 1.0, hi_open=True)
         check_range("beta_fast_frames", self.beta_fast_frames, 0.0, 1e9)
-        check_range("fast_ahead_s", self.fast_ahead_s, 0.0, 60.0)  # (eb-robust: at most level_ahead_s)
         if self.mix_fast_ramp_cells is not None:
             check_range("mix_fast_ramp_cells", self.mix_fast_ramp_cells, 0.0, 1e9)
         if not isinstance(self.fast_blend, bool):
             raise ParameterError("fast_blend", self.fast_blend, "True or False")
-        check_range("beta_floor_s", self.beta_floor_s, 0.0, 60.0, lo_open=True)
-        if self.beta_level_db is not None:
-            check_range("beta_level_db", self.beta_level_db, 0.0, 60.0)
-            if self.beta_model != "delayed":
-                raise ParameterError("beta_level_db", self.beta_level_db, "None unless beta_model='delayed' (it "
-                                     "weighs the frames the delayed beta learns)")
         if self.beta_model == "delayed" and not (getattr(self, "calibrate", False) and self.talker_blind):
-            raise ParameterError("beta_model", self.beta_model, "'bin' or 'direction' unless eb-robust calibrates "
-                                 "(calibrate=True) with a talker-blind rule: the delayed beta learns where the "
+            raise ParameterError("beta_model", self.beta_model, "'bin' unless eb-robust calibrates "
+                                 "(calibrate=True) with the frame rule: the delayed beta learns where the "
                                  "calibration does")
-        check_choice("beta_norm", self.beta_norm, ("frame", "learned"))
-        for name in ("beta_bands_hz", "mix_bands_hz"):
-            edges = getattr(self, name)
-            if edges is None and name == "mix_bands_hz":
-                continue
-            if not isinstance(edges, tuple) or any(not isinstance(e, (int, float)) or e <= 0 for e in edges) \
-                    or list(edges) != sorted(set(edges)):
-                raise ParameterError(name, edges, "a tuple of increasing band edges in Hz (> 0)")
+        edges = self.mix_bands_hz
+        if edges is not None and (not isinstance(edges, tuple) or any(not isinstance(e, (int, float)) or e <= 0
+                                                                       for e in edges)
+                                  or list(edges) != sorted(set(edges))):
+            raise ParameterError("mix_bands_hz", edges, "a tuple of increasing band edges in Hz (> 0)")
         check_range("mix_ramp_cells", self.mix_ramp_cells, 0.0, 1e9)
         check_choice("mix_model", self.mix_model, ("weights", "delayed"))
         check_range("mix_fast_cells", self.mix_fast_cells, 0.0, 1e9)
@@ -477,37 +426,19 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         return look * 0.5 * (X1 * np.exp(-1j * wt) + X2)
 
     def _betas(self, cF, cB, X1, sub: SubbandState, fs: int, beta_frozen, learn=None):
-        """``(betas (F, K), new state, frozen (F, K) or None, smoothed |X1|^2 (F, K))``: per bin or per band,
-        or (``beta_model="delayed"``) per bin, learned with the calibration's weights ``learn``."""
+        """``(betas (F, K), new state, frozen (F, K) or None, smoothed |X1|^2 (F, K))``: one NLMS beta per bin
+        (``beta_frozen (F, K)``: more cells where it must not learn, or None), or (``beta_model="delayed"``)
+        one least-squares beta per bin, learned with the calibration's weights ``learn``."""
         p = self.params
         gate_db = None if p.adapt_gate_db is None else float(p.adapt_gate_db)
         gate_lam = float(p.lam) if p.gate_lam is None else float(p.gate_lam)
         if p.beta_model == "delayed":
             return self._delayed_betas(cF, cB, X1, sub, fs, learn, gate_db=gate_db, gate_lam=gate_lam)
-        if p.beta_model == "bin":
-            extras: dict = {}
-            betas, sub = subband_beta_step(cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
-                                           gate_db=gate_db, gate_lam=gate_lam, gate_window=self._gate_window(fs),
-                                           extras=extras, also_frozen=beta_frozen)
-            return betas, sub, extras["frozen"], extras["p1"]
-        if cF.shape[0] == 0:
-            return np.zeros(cF.shape), sub, None, np.zeros(cF.shape)
-        frozen, changes = _learn_frozen(cF, cB, sub, gate_db=gate_db, gate_lam=gate_lam,
-                                        gate_window=self._gate_window(fs), also_frozen=beta_frozen)
-        pw1 = X1.real**2 + X1.imag**2
-        p1 = smooth_frames(pw1, float(p.lam), sub.p_1)
-        omega = bin_omega(int(p.frame_len))
-        onehot = band_onehot(omega / (2 * np.pi) * fs, p.beta_bands_hz)
-        c0 = sub.cos_theta
-        if c0 is None:  # beta0 at low frequencies: (1 + c) / (1 - c) = beta0
-            c0 = np.full(onehot.shape[1], (float(p.beta0) - 1.0) / (float(p.beta0) + 1.0))
-        betas, _, c, den = direction_beta_step(
-            cF, cB, pw1, None if frozen is None else ~frozen, c0, omega_t=omega * self.delay_samples(fs),
-            onehot=onehot, mu=float(p.mu), eps=float(p.eps), den0=sub.p_b if sub.cos_theta is not None else None,
-            norm_lam=float(p.lam) if p.beta_norm == "learned" else None)
-        values = dict(vars(sub))
-        values.update(cos_theta=c, p_b=den, p_1=p1[-1].copy() if p1.shape[0] else sub.p_1, **changes)
-        return betas, SubbandState(**values), frozen, p1
+        extras: dict = {}
+        betas, sub = subband_beta_step(cF, cB, X1, sub, mu=float(p.mu), lam=float(p.lam), eps=float(p.eps),
+                                       gate_db=gate_db, gate_lam=gate_lam, gate_window=self._gate_window(fs),
+                                       extras=extras, also_frozen=beta_frozen)
+        return betas, sub, extras["frozen"], extras["p1"]
 
     def _delayed_betas(self, cF, cB, X1, sub: SubbandState, fs: int, learn, *, gate_db, gate_lam):
         """``beta_model="delayed"``: one least-squares beta per bin, ``clip(S_FB / S_BB, 0, 1)`` (``beta0`` before
@@ -545,9 +476,7 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         p1 = smooth_frames(X1.real**2 + X1.imag**2, float(p.lam), sub.p_1) if F else np.zeros((0, K))
         open_ = np.ones((F, K)) if frozen is None else (~frozen).astype(float)
         n_ahead = p.look_ahead_frames(fs)  # (eb-robust's calibration parameters)
-        # beta_level_db: the frames' own |X1|^2 wait with them (only then: the default path does no extra work)
-        own = (X1.real**2 + X1.imag**2,) if p.beta_level_db is not None else ()
-        fs_, bs_, ps_, os_, *es_ = _pending(sub.beta_pend, (cF, cB, p1, open_, *own), n_ahead)
+        fs_, bs_, ps_, os_ = _pending(sub.beta_pend, (cF, cB, p1, open_), n_ahead)
         held, now = learn
         zeros = [np.zeros(K)] * 4
         # no regulariser (eps 0): the ratio is the minimiser itself, as NLMS's fixed point is; a regulariser
@@ -556,38 +485,18 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
         st = zeros if sub.beta_ls is None else list(sub.beta_ls)
         learned = held * os_[:F]
         values = dict(vars(sub))
-        if p.beta_level_db is not None:  # the judged cells weighed by their level over the noise floor
-            n_window = max(1, int(math.ceil(float(p.beta_floor_s) * fs / int(p.hop))))
-            # the cell's level: its own power, or the smoothed one where that is higher (it lags an onset,
-            # the raw one a decay's echo in the window)
-            level, values["beta_floor_tail"] = _level_weights(np.maximum(es_[0][:F], ps_[:F]), p1,
-                                                              sub.beta_floor_tail, n_window=n_window,
-                                                              knee_db=float(p.beta_level_db))
-            learned = learned * level
         betas, *st = pooled_mix_step(fs_[:F], bs_[:F], ps_[:F], learned, *st, **kw)
         if p.beta_fast_frames > 0:  # the start: a beta learned at once stands in until the delayed one has frames
             n_before = (0.0 if sub.beta_ls is None else sub.beta_ls[3]) + np.cumsum(learned, axis=0) - learned
             fast = zeros if sub.beta_fast is None else list(sub.beta_fast)
-            (fq, bq, pq, oq), wq = self._lagged((fs_, bs_, ps_, os_), now, n_ahead, sub.frames, fs)
-            quick, *fast = pooled_mix_step(fq, bq, pq, wq * oq, *fast, **kw)
+            # the block's own frames, learned at once with the block's weights
+            quick, *fast = pooled_mix_step(fs_[n_ahead:], bs_[n_ahead:], ps_[n_ahead:], now * os_[n_ahead:], *fast,
+                                           **kw)
             betas = _hand_over(quick, betas, n_before, float(p.beta_fast_frames), p.fast_blend)
             values["beta_fast"] = tuple(fast)
-        values.update(beta_ls=tuple(st), beta_pend=tuple(a[F:] for a in (fs_, bs_, ps_, os_, *es_)),
+        values.update(beta_ls=tuple(st), beta_pend=tuple(a[F:] for a in (fs_, bs_, ps_, os_)),
                       p_1=p1[-1].copy() if F else sub.p_1, beta=betas[-1].copy() if F else sub.beta, **changes)
         return betas, SubbandState(**values), frozen, p1
-
-    def _lagged(self, seqs, now, n_ahead: int, seen: int, fs: int):
-        """The start-up stand-ins' frames: ``fast_ahead_s`` (``d`` frames) before the block's, from the pending
-        arrays ``seqs`` (``(n_ahead + F, K)`` each, the block's frames last), with the block's ``now`` weights as
-        theirs -- a frame is learned once the ``d`` frames after it were heard quiet too (``now`` is 0 from
-        the first frame the rule hears the talker in, so a talker's onset the rule hears up to ``d`` frames
-        late is not learned); rows before the stream start weigh 0.  ``d = 0``: the block's frames, at once.
-        Returns ``(arrays (F, K) each, weights (F, K))``."""
-        d = int(round(float(self.params.fast_ahead_s) * fs / int(self.params.hop)))
-        F = now.shape[0]
-        rows = [x[n_ahead - d:n_ahead - d + F] for x in seqs]
-        real = (seen + np.arange(F) - d) >= 0
-        return rows, now * real[:, None]
 
     def _mix(self, Y, D, p1, frozen, sub: SubbandState, fs: int, mix_learn=None):
         """``(alphas (F, K), new state)``: the DAS mix weight per bin or (``mix_bands_hz``) per band, or
@@ -633,9 +542,10 @@ class SubbandBase(fast_frames.FusedStreaming, StftEnhancer):
             cells = held @ onehot  # (F, B); n_before: the cells the delayed weight learned before each frame
             n_before = (0.0 if sub.mix_n is None else sub.mix_n) + np.cumsum(cells, axis=0) - cells
             fast = zeros if sub.mix_fast is None else list(sub.mix_fast)
-            (yq, dq, pq), wq = self._lagged((ys, ds, ps), now, n_ahead, sub.frames, fs)
             ramp_q = p.mix_ramp_cells if p.mix_fast_ramp_cells is None else p.mix_fast_ramp_cells
-            quick, *fast = pooled_mix_step(yq, dq, pq, wq, *fast, ramp_cells=float(ramp_q), **kw)
+            # the block's own frames, learned at once with the block's weights
+            quick, *fast = pooled_mix_step(ys[n_ahead:], ds[n_ahead:], ps[n_ahead:], now, *fast,
+                                           ramp_cells=float(ramp_q), **kw)
             band = onehot.argmax(axis=1)
             alphas = _hand_over(quick, alphas, n_before[:, band], float(p.mix_fast_cells), p.fast_blend)
             values["mix_fast"] = tuple(fast)
@@ -691,31 +601,19 @@ class SubbandElkoBeamformer(SubbandBase):
         per frame (0.95).
     mix_smooth_bins, mix_alpha0 : the DAS mix weight's averaging half-width over bins (default 0) and
         its prior (default 0: the differential path); see :func:`das_mix_step`.
-    beta_model, beta_bands_hz : ``"bin"`` (default: one NLMS beta per bin) or ``"direction"`` (opt-in,
-        :mod:`enhancers.beam.beam_pool`: one rear direction per band, beta of every bin from eq. 1, step ``mu``
-        per frame) and that model's band edges in Hz (default ``()``: one band); or ``"delayed"``
-        (``eb-robust`` with a talker-blind rule only: one least-squares beta per bin learned ``level_ahead_s``
-        late on the calibration's held weights, see ``_delayed_betas``).
+    beta_model : ``"bin"`` (default: one NLMS beta per bin) or ``"delayed"`` (``eb-robust`` with the frame rule
+        only: one least-squares beta per bin learned ``level_ahead_s`` late on the calibration's held weights,
+        see ``_delayed_betas``).
     beta_lam, beta_fast_frames : ``"delayed"``'s average factor per learned frame (0.9) and its start-up
         stand-in's length in learned frames per bin (0: none).
-    beta_level_db, beta_floor_s : ``"delayed"`` only (opt-in, default None): each judged cell's learning weight
-        times ``min(1, g floor / P)^2``, ``P`` the cell's level, ``floor`` the minimum of its smoothed level
-        over the last ``beta_floor_s`` (3 s), ``g`` this many dB (:func:`_level_weights`): a loud cell the
-        talker-blind rule missed then weighs as ``1 / P``, not ``P``.
-    fast_ahead_s : the start-up stand-ins (``mix_fast_cells``, ``beta_fast_frames``) learn a frame only once
-        this much after it was heard quiet too (default 0: at once; at most ``level_ahead_s``).
-    fast_blend : the stand-ins hand over to the delayed estimates linearly in the learned count (``quick +
-        min(1, n / N) (delayed - quick)``) instead of at once at ``N`` (default False): the count differs a
-        little between the runs on ``s + n`` and ``s - n``, and a switch at a count changes the weight by the
-        two estimates' whole difference in one run only (measured on ``phone``'s hall at 15 dB: 0.79 for 100
-        frames).
+    fast_blend : the stand-ins (``mix_fast_cells``, ``beta_fast_frames``) hand over to the delayed estimates
+        linearly in the learned count (``quick + min(1, n / N) (delayed - quick)``) instead of at once at ``N``
+        (default False): the count differs a little between the runs on ``s + n`` and ``s - n``, and a switch
+        at a count changes the weight by the two estimates' whole difference in one run only.
     mix_fast_ramp_cells : the DAS weight's stand-in's own shrinkage towards ``mix_alpha0`` (cells; default
-        None: ``mix_ramp_cells``, as the delayed weight's): a long shrinkage of the delayed weight keeps the
-        weight of a talk-filled stream, learned from few quiet frames, near its prior, while the stand-in
-        must null a machine heard from the stream's start.
-    beta_norm : the direction model's normaliser: ``"frame"`` (default: the frame's power over all the band's
-        cells) or ``"learned"`` (averaged, with ``lam``, over the learned cells only); see
-        :func:`enhancers.beam.beam_pool.direction_beta_step`.
+        None: ``mix_ramp_cells``, as the delayed weight's).
+    eq_bound_beta : the EQ's noise-aware bound from the fixed pattern ``cF - b cB`` (None, default: from the
+        adapted beta; see the module docstring).
     mix_bands_hz, mix_ramp_cells : the DAS mix weight per band (edges in Hz, ``()``: one band; default
         None: per bin) from the band's unfrozen cells only, shrunk towards ``mix_alpha0`` until it has
         learned ``mix_ramp_cells`` cells (default 0: no shrinkage); :func:`enhancers.beam.beam_pool.pooled_mix_step`.

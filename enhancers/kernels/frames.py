@@ -7,8 +7,9 @@ stream and runs the frames through one numba kernel (:func:`enhancers.kernels.ro
 Batch processing runs the same kernel on all frames, so batch equals streaming exactly.
 
 The numpy implementations stay the reference (``tests/test_fast_frames.py`` compares the two to
-rounding).  The kernel covers the default algorithm: the calibration without the talker-blind
-mode (``freeze_level_db=None``, ``ramp_frames=0``), and every sub-band beamformer option; other
+rounding).  The kernel covers the default algorithm: the calibration's cardioid rules without the frame
+rule, the rear rule or the start-up ramp (``frame_q_db=None``, ``cal_rear_db=None``, ``ramp_frames=0``), the
+per-bin estimate (``model="bins"``), and the per-bin NLMS beamformer with its gate, EQ and DAS mix; other
 parameter sets, or ``COMPILED = False``, run the reference.
 
 Measured (``python -m benchmarks.perf.enhancer_rtf --only mic-calibration eb-robust eb-subband
@@ -45,28 +46,27 @@ COMPILED = True
 KERNEL_FIELDS = frozenset((
     "spacing_m", "c_mps", "frame_len", "hop", "window",
     "tau_s", "fit_band_hz", "smooth_bins", "smooth_frac", "estimate_every", "max_gain_db", "max_phase_deg",
-    "min_coherence", "phase_leak", "freeze_db", "freeze_band_db", "gate_lam_cal", "floor_lam_cal", "floor_s",
+    "min_coherence", "phase_leak", "freeze_db", "freeze_band_db", "gate_lam_cal", "floor_s",
     "mu", "lam", "eps", "beta0", "adapt_gate_db", "gate_lam", "gate_floor_s", "eq", "eq_max_gain_db",
     "eq_noise_gain_db", "eq_highpass_hz", "eq_phase", "das_mix", "mix_lam", "mix_smooth_bins", "mix_alpha0",
     "calibrate"))
-#: The talker-blind mode's variants: no effect while ``freeze_level_db`` is None and ``ramp_frames`` 0.
-_OFF_WITH_THE_MODE = frozenset(("level_band_hz", "level_floor_s", "level_floor_lam", "level_frontal_db",
-                                "level_hang_s", "level_ahead_s", "beam_freeze", "ramp_over_band"))
+#: The frame rule's hold and floor: no effect while ``frame_q_db`` is None.
+_OFF_WITH_THE_MODE = frozenset(("level_floor_s", "level_hang_s", "level_ahead_s"))
 
 
 def kernel_supports(p) -> bool:
-    """Whether the kernel covers params ``p``: not the talker-blind mode or its ramp, and every field it
-    does not know (an opt-in variant added later) at its default.
+    """Whether the kernel covers params ``p``: no start-up ramp, and every field it does not know (the frame
+    and rear rules, the sensor model, the pooled and delayed estimates) at its default.
 
     >>> import enhancers
     >>> kernel_supports(enhancers.make("eb-robust").params)
     True
-    >>> kernel_supports(enhancers.make("eb-robust", freeze_level_db=3.0).params)
+    >>> kernel_supports(enhancers.make("eb-robust", frame_q_db=5.0).params)
     False
     """
-    if getattr(p, "freeze_level_db", None) is not None or float(getattr(p, "ramp_frames", 0.0)) != 0.0:
+    if float(getattr(p, "ramp_frames", 0.0)) != 0.0:
         return False
-    known = KERNEL_FIELDS | _OFF_WITH_THE_MODE | {"freeze_level_db", "ramp_frames"}
+    known = KERNEL_FIELDS | _OFF_WITH_THE_MODE | {"ramp_frames"}
     return all(getattr(p, f.name) == f.default for f in dataclasses.fields(p) if f.name not in known)
 
 
@@ -118,14 +118,13 @@ def _calibration_constants(p, fs: int, delay: float, band: slice, K: int):
     k = np.arange(K)
     half = np.maximum(int(p.smooth_bins), np.round(float(p.smooth_frac) * k).astype(int))
     bounds = np.stack([np.maximum(k - half, 0), np.minimum(k + half + 1, K)]).astype(np.int64)
-    par = {"P_GL": float(p.gate_lam_cal), "P_FLOORLAM": 0.0 if p.floor_lam_cal is None else float(p.floor_lam_cal),
+    par = {"P_GL": float(p.gate_lam_cal),
            "P_THR_BIN": 10.0 ** (float(p.freeze_db) / 10.0), "P_THR_BAND": 10.0 ** (float(p.freeze_band_db) / 10.0),
            "P_CMIN": 1.0 - math.exp(-int(p.hop) / (fs * float(p.tau_s))),
            "P_MAXSLOPE": 2 * math.pi * delay / int(p.frame_len), "P_MAXGAIN": float(p.max_gain_db),
            "P_MAXPHASE": math.radians(float(p.max_phase_deg)), "P_MINCOH": float(p.min_coherence),
            "P_LEAK": float(p.phase_leak)}
-    ipar = {"I_CAL": 1, "I_LO": band.start, "I_HI": band.stop, "I_NWC": n_window, "I_EVERY": int(p.estimate_every),
-            "I_FLOORLAM": int(p.floor_lam_cal is not None)}
+    ipar = {"I_CAL": 1, "I_LO": band.start, "I_HI": band.stop, "I_NWC": n_window, "I_EVERY": int(p.estimate_every)}
     return par, ipar, bounds, n_window
 
 

@@ -35,16 +35,16 @@ from enhancers.kernels.wola import (
 TINY = 1e-300
 
 # ipar slots
-I_CAL, I_BEAM, I_LO, I_HI, I_NWC, I_EVERY, I_FLOORLAM, I_GATE, I_NWG, I_MIX, I_MIXH, I_EQ, I_NOISE, I_PHASE, \
-    I_HP, I_NFRAMES = range(16)
-N_IPAR = 16
+I_CAL, I_BEAM, I_LO, I_HI, I_NWC, I_EVERY, I_GATE, I_NWG, I_MIX, I_MIXH, I_EQ, I_NOISE, I_PHASE, I_HP, \
+    I_NFRAMES = range(15)
+N_IPAR = 15
 # par slots
-P_GL, P_FLOORLAM, P_THR_BIN, P_THR_BAND, P_CMIN, P_MAXSLOPE, P_MAXGAIN, P_MAXPHASE, P_MINCOH, P_LEAK, P_MU, P_LAM, \
-    P_EPS, P_GLAM, P_THR_GATE, P_MIXLAM, P_ALPHA0, P_BOUND = range(18)
-N_PAR = 18
+P_GL, P_THR_BIN, P_THR_BAND, P_CMIN, P_MAXSLOPE, P_MAXGAIN, P_MAXPHASE, P_MINCOH, P_LEAK, P_MU, P_LAM, \
+    P_EPS, P_GLAM, P_THR_GATE, P_MIXLAM, P_ALPHA0, P_BOUND = range(17)
+N_PAR = 17
 # rs rows (real state per bin)
-R_COUNTS, R_QB, R_QW, R_BETA, R_PB, R_P1, R_GATE, R_SYD, R_SDD, R_SM = 0, 1, 5, 9, 10, 11, 12, 14, 15, 16
-N_RS = 17
+R_COUNTS, R_QB, R_QW, R_BETA, R_PB, R_P1, R_GATE, R_SYD, R_SDD, R_SM = 0, 1, 3, 5, 6, 7, 8, 10, 11, 12
+N_RS = 13
 # cs rows (complex state per bin)
 C_AVG, C_RLAST, C_RAWLAST = 0, 3, 4
 N_CS = 5
@@ -129,25 +129,17 @@ def _floor_min(dq_val, dq_idx, dq_hs, g, k, t, x, n_window):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _gate(eF, eB, rs, row, lam, floor_lam, use_floor_lam, thr, dq_val, dq_idx, dq_hs, g, t, n_window,
-          frozen):  # pragma: no cover - compiled
+def _gate(eF, eB, rs, row, lam, thr, dq_val, dq_idx, dq_hs, g, t, n_window, frozen):  # pragma: no cover - compiled
     """stft_stage.power_ratio_gate for one frame (cap 1): ``frozen[k] |= r > min(floor, 1) thr``;
-    ``rs[row:row + 4]`` = smoothed P_F, P_B and the floor's (floor_lam) P_F, P_B."""
+    ``rs[row:row + 2]`` = smoothed P_F, P_B."""
     b = 1.0 - lam
-    bf = 1.0 - floor_lam
     for k in range(eF.shape[0]):
         pf = b * eF[k] + lam * rs[row, k]
         pb = b * eB[k] + lam * rs[row + 1, k]
         rs[row, k], rs[row + 1, k] = pf, pb
         r = (pf + TINY) / (pb + TINY)
-        rf = r
-        if use_floor_lam:
-            sf = bf * eF[k] + floor_lam * rs[row + 2, k]
-            sb = bf * eB[k] + floor_lam * rs[row + 3, k]
-            rs[row + 2, k], rs[row + 3, k] = sf, sb
-            rf = (sf + TINY) / (sb + TINY)
         if n_window > 0:
-            ref = min(_floor_min(dq_val, dq_idx, dq_hs, g, k, t, rf, n_window), 1.0)
+            ref = min(_floor_min(dq_val, dq_idx, dq_hs, g, k, t, r, n_window), 1.0)
         else:
             ref = 1.0
         if r > ref * thr:
@@ -188,9 +180,9 @@ def _cal_freeze(x1, x2, par, ipar, cst, rs, dq_val, dq_idx, dq_hs, t, card):  # 
                 sB += eB[k + o] * cst[K_INBAND, k + o]
         wF[k], wB[k] = totF - sF, totB - sB
         card[k] = False
-    nw, gl, fl, ufl = ipar[I_NWC], par[P_GL], par[P_FLOORLAM], ipar[I_FLOORLAM] != 0
-    _gate(nF, nB, rs, R_QB, gl, fl, ufl, par[P_THR_BIN], dq_val, dq_idx, dq_hs, 0, t, nw, card)
-    _gate(wF, wB, rs, R_QW, gl, fl, ufl, par[P_THR_BAND], dq_val, dq_idx, dq_hs, 1, t, nw, card)
+    nw, gl = ipar[I_NWC], par[P_GL]
+    _gate(nF, nB, rs, R_QB, gl, par[P_THR_BIN], dq_val, dq_idx, dq_hs, 0, t, nw, card)
+    _gate(wF, wB, rs, R_QW, gl, par[P_THR_BAND], dq_val, dq_idx, dq_hs, 1, t, nw, card)
 
 
 @numba.njit(cache=True)
@@ -345,7 +337,7 @@ def _beam(x1, x2, par, ipar, cst, rs, dq_val, dq_idx, dq_hs, t, mix_frozen, y, b
         eB[k] = cB[k].real * cB[k].real + cB[k].imag * cB[k].imag
     frozen = np.zeros(K, dtype=np.bool_)
     if ipar[I_GATE]:
-        _gate(eF, eB, rs, R_GATE, par[P_GLAM], 0.0, False, par[P_THR_GATE], dq_val, dq_idx, dq_hs, 2, t,
+        _gate(eF, eB, rs, R_GATE, par[P_GLAM], par[P_THR_GATE], dq_val, dq_idx, dq_hs, 2, t,
               ipar[I_NWG], frozen)
     for k in range(K):
         pb = b * eB[k] + lam * rs[R_PB, k]
