@@ -362,3 +362,43 @@ def test_raw_pesq_columns_invert_the_p862_1_mapping(scene, scene_inputs):
     y = scene_inputs["pesq_nb_in"]
     x = scene_inputs["pesq_nb_raw_in"]
     np.testing.assert_allclose(0.999 + 4 / (1 + np.exp(-1.4945 * x + 4.6607)), y, rtol=1e-12)
+
+
+def _band_power_db(s, n, fs, band):
+    # Oracle: powers of the ideal band-pass by Parseval (both edges included), on the frequency
+    # grid band_snr_db documents (the FFT zero-padded to scipy's next fast length).
+    from scipy.fft import next_fast_len
+
+    nfft = next_fast_len(s.size, real=True)
+    f = np.fft.rfftfreq(nfft, 1 / fs)
+    sel = (f >= band[0]) & (f <= band[1])
+    ps, pn = (np.sum(np.abs(np.fft.rfft(x, nfft)[sel]) ** 2) for x in (s, n))
+    return 10 * np.log10(ps / pn)
+
+
+def test_in_band_snr_uses_the_scenes_band_and_undoes_the_latency(scene, scene_inputs):
+    # A non-default band (500-2000 Hz) and a declared latency of 5 samples: the output's parts
+    # are the replayed operation on each image, shifted back by 5 (closed form, tolerance 1e-6 dB).
+    from types import SimpleNamespace
+
+    banded = StandInScene(**{**scene.__dict__, "scene": SimpleNamespace(snr_band_hz=(500.0, 2000.0))})
+    enh = DelayedLowpassRamp(DelayedLowpassRamp.Params(delay=5, declared=5))
+    row = evaluate_enhancer(enh, banded, input_metrics=input_metrics(banded))
+    assert (row["inband_lo_hz"], row["inband_hi_hz"]) == (500.0, 2000.0)
+    s_out = enh._op(np.asarray(scene.speech_image))[0][5:]
+    n_out = enh._op(np.asarray(scene.noise_image))[0][5:]
+    want_out = _band_power_db(s_out, n_out, FS, (500.0, 2000.0))
+    m = s_out.size
+    s0, n0 = np.asarray(scene.speech_image)[0][:m], np.asarray(scene.noise_image)[0][:m]
+    assert row["snr_out_band_db"] == pytest.approx(want_out, abs=1e-6)
+    assert row["snr_i_band_db"] == pytest.approx(want_out - _band_power_db(s0, n0, FS, (500.0, 2000.0)), abs=1e-6)
+
+
+@pytest.mark.parametrize(("fs", "top"), [(8000, 3500.0), (16000, 7000.0), (48000, 7000.0)])
+def test_default_in_band_top_edge_is_capped_at_seven_sixteenths_of_fs(fs, top):
+    # Closed form: min(7000, 7 fs / 16): 3.5 kHz at 8 kHz, the default 7 kHz from 16 kHz up.
+    from types import SimpleNamespace
+
+    from benchmarks.metrics.evaluate import inband_hz
+
+    assert inband_hz(SimpleNamespace(scene=None, fs=fs)) == (100.0, top)
