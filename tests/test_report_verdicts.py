@@ -1,6 +1,6 @@
 """Statistics that decide (issue 16 part 4) and the workflows that feed them (issue 20 part 5):
-paired verdicts against scipy's paired t-test, the ranking rule and its tiers, honest small-n
-cells, ``--seeds`` and the stratified ``--limit``."""
+paired verdicts against scipy's paired t-test, verdicts per RT60, honest small-n cells,
+``--seeds`` and the stratified ``--limit`` (the ranking: tests/test_report_ranking.py)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ from scipy import stats
 
 from benchmarks.report.core import write_report
 from benchmarks.report.html import markdown_to_html
+from benchmarks.report.ranking import ranking_section
 from benchmarks.report.tables import MIN_T_SEEDS, aggregate, metric_range, stat_cell
-from benchmarks.report.verdicts import diff_cell, paired_verdicts, rank_tiers, verdicts_section
+from benchmarks.report.verdicts import diff_cell, paired_verdicts
 from benchmarks.run.sweep import load_sweep, stratified
 
 
@@ -80,46 +81,39 @@ def test_cells_never_print_an_interval_wider_than_the_metric_range():
     assert cell.endswith("]*") and (lo, hi) != (0.0, 1.0) and lo >= metric_range("stoi_out")[0] and hi == 1.0
 
 
-def _rank_rows(spec, n_seeds=5):
-    return [dict(enhancer=e, seed=s, noise="babble", pesq_nb_raw_out=p + 0.02 * s, stoi_out=st, snr_i_db=snr,
-                 snr_method="phase-inversion" if e == "bb" else "replay")
-            for s in range(n_seeds) for e, p, st, snr in spec]  # fmt: skip
+def test_verdicts_are_per_rt60_never_pooled():
+    """Two RT60s where eb beats passthrough by +3 at one and loses by 3 at the other: pooled, the
+    difference would be 0; per RT60 each verdict is resolved (oracle: the constructed gains)."""
+    rows = []
+    for rt, gain in ((0.3, 3.0), (0.6, -3.0)):
+        for r in _rows(gain=gain, spread=0.3):
+            rows.append({**r, "rt60_s": rt, "condition_id": f"{r['condition_id']}-{rt}"})
+    recs = [r for r in paired_verdicts(rows, ("snr_i_db",)) if (r["system"], r["baseline"]) == ("eb", "passthrough")]
+    assert {r["noise"]: r["verdict"] for r in recs} == {"babble, RT60 0.3 s": "better", "babble, RT60 0.6 s": "worse"}
 
 
-def test_ranking_rule_pesq_then_stoi_then_snr_i_with_tiers_and_marks():
-    # "a" has the best SNR-I but the worst PESQ: the rule ranks it last (not by SNR-I alone).
-    spec = [("a", 1.0, 0.9, 20.0), ("b", 2.0, 0.7, 5.0), ("c", 2.0, 0.8, 1.0), ("bb", 3.0, 0.5, 0.0)]
-    ranked = rank_tiers(_rank_rows(spec), flagged=lambda r: r["enhancer"] == "b")
-    assert [r["enhancer"] for r in ranked] == ["bb", "c", "b", "a"]
-    assert [r["tier"] for r in ranked] == [1, 2, 2, 3]  # b and c overlap in PESQ: one tier
-    assert ranked[0]["black_box"] and not ranked[1]["black_box"] and ranked[2]["flagged"] == 5
-
-
-def test_ranking_shows_dnsmos_columns_only_when_the_rows_have_them(tmp_path):
-    """Opted-in DNSMOS (``metrics = ["dnsmos"]``) appears beside the ranked metrics as the seeds'
-    mean (min … max) -- oracle: numpy over the per-seed means -- and in ranking.csv; not ranked on
-    (the order stays the PESQ order); absent columns add nothing."""
-    rows = _rows(n_seeds=3)
-    lines, _ = verdicts_section(rows, tmp_path)
+def test_ranking_shows_dnsmos_only_when_the_rows_have_it(tmp_path):
+    """DNSMOS OVRL (``metrics = ["dnsmos"]``) joins the default rule's columns when the rows hold
+    it, as the seeds' mean (min … max) -- oracle: numpy over the per-seed means -- with its own
+    letters and in ranking.csv; absent, it adds no column."""
+    rows = [dict(r, pesq_wb_out=r["pesq_nb_raw_out"]) for r in _rows(n_seeds=3)]
+    lines, _ = ranking_section(rows, tmp_path)
     assert not any("DNSMOS" in line for line in lines)
     for r in rows:
         r["dnsmos_ovrl"] = {"passthrough": 3.5, "ss": 2.0, "eb": 1.0}[r["enhancer"]] + 0.1 * r["seed"]
-    text = "\n".join(verdicts_section(rows, tmp_path)[0])
-    ranking = text[text.index("### Ranking"):].splitlines()
-    head = next(line for line in ranking if line.startswith("| tier"))
-    assert head.endswith("| SNR-I (dB) | DNSMOS OVRL | n seeds |") and "DNSMOS SIG" not in head
-    order = [line.split(" | ")[1] for line in ranking if line.startswith("| ") and line.split(" | ")[0][2:].isdigit()]
-    assert order[-1] == "`passthrough`"  # lowest PESQ, highest DNSMOS: ranked by PESQ
-    eb = next(line for line in ranking if "| `eb` |" in line)
-    assert eb.split(" | ")[-2] == f"{np.mean([1.0, 1.1, 1.2]):.2f} (1.00 … 1.20)"
-    assert "dnsmos_ovrl_lo" in (tmp_path / "ranking.csv").read_text().splitlines()[0]
+    text = "\n".join(ranking_section(rows, tmp_path)[0])
+    head = next(line for line in text.splitlines() if line.startswith("| rank"))
+    assert head.endswith("| DNSMOS OVRL | n seeds |") and "DNSMOS SIG" not in head
+    eb = next(line for line in text.splitlines() if "| `eb` |" in line)
+    assert eb.split(" | ")[-2].startswith(f"{np.mean([1.0, 1.1, 1.2]):.2f} (1.00 … 1.20) **")
+    assert "letters_dnsmos_ovrl" in (tmp_path / "ranking.csv").read_text().splitlines()[0]
 
 
 def test_report_has_contents_verdicts_and_resolving_links(tmp_path):
-    write_report(_rows(), tmp_path)
+    write_report([dict(r, pesq_wb_out=r["pesq_nb_raw_out"]) for r in _rows()], tmp_path)
     text = (tmp_path / "report" / "summary.md").read_text()
-    assert text.index("## Contents") < text.index("## Overview") < text.index("## Paired verdicts and ranking")
-    assert "Rule: ranked by raw PESQ" in text and f"n ≥ {MIN_T_SEEDS}" in text
+    assert text.index("## Contents") < text.index("## Ranking") < text.index("## Paired verdicts") < text.index("## Overview")
+    assert "the field's metrics" in text and f"n ≥ {MIN_T_SEEDS}" in text
     page = markdown_to_html(text)
     links = re.findall(r'href="#([\w-]+)"', page)
     ids = set(re.findall(r' id="([\w-]+)"', page))

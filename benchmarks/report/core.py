@@ -5,8 +5,12 @@ columns plus extras such as ``trace_json``) and writes under ``OUT_DIR/report/``
 ``summary.md`` and ``index.html`` in this order:
 
 * a contents list (in-page links) and the overview figure (:func:`benchmarks.report.figures.overview_figure`);
-* :data:`HEADLINE_SECTIONS` -- the paired verdicts against ``passthrough`` and ``ss`` and the
-  ranking by its stated rule (:mod:`benchmarks.report.verdicts`);
+* a banner when the run is limited or partial (``N of M conditions``) or holds rows of a
+  stopped run (:func:`coverage_banner`);
+* :data:`HEADLINE_SECTIONS` -- the ranking ("which system, by how much, how sure": one
+  system x metric table per noise, letters from Holm-corrected paired tests,
+  :mod:`benchmarks.report.ranking`) and the paired verdicts against ``passthrough`` and ``ss``
+  (:mod:`benchmarks.report.verdicts`);
 * the figures (:mod:`benchmarks.report.figures` and the sections' own), only those the data supports;
 * :data:`SECTIONS` -- the details: realistic phones, mismatch, reverberation, the thesis-style
   tables beside the thesis' printed numbers (tables 7.1-7.9) with its headline, RT60 and
@@ -43,6 +47,7 @@ from benchmarks.report import thesis_repro as report_thesis_repro
 from benchmarks.report import tradeoff as report_tradeoff
 from benchmarks.report.html import slug, write_index
 from benchmarks.report.listening import ListenOptions
+from benchmarks.report.ranking import active_rule, ranking_section
 from benchmarks.report.ratings import ratings_section
 from benchmarks.report.splits import captioned, header_line, split_label
 from benchmarks.report.tables import (
@@ -63,8 +68,9 @@ from benchmarks.report.tables import (
     sweep_slices,
     write_csv,
 )
-from benchmarks.report.verdicts import verdicts_section
+from benchmarks.report.verdicts import EXTRA_VERDICT_METRICS, verdicts_section
 from benchmarks.thesis import reference as T
+from benchmarks.thesis.results import find_results
 
 REPORT_DIRNAME = "report"
 
@@ -425,11 +431,13 @@ def contents_lines(lines: Sequence[str]) -> list[str]:
     """An in-page contents list of the ``## `` headings in ``lines`` (anchors by
     :func:`benchmarks.report.html.slug`).
 
-    >>> contents_lines(["## Paired verdicts", "text"])[2]
+    >>> contents_lines(["## Paired verdicts", "text"])[4]
     '- [Paired verdicts](#paired-verdicts)'
     """
     titles = [ln[3:].strip() for ln in lines if ln.startswith("## ")]
-    return ["## Contents", "", *(f"- [{t}](#{slug(t)})" for t in titles), ""]
+    # folded, so the first screen shows the ranking rather than a list of links
+    return ["## Contents", "", f"<details><summary>{len(titles)} sections</summary>", "",
+            *(f"- [{t}](#{slug(t)})" for t in titles), "", "</details>", ""]
 
 
 # -- sections ------------------------------------------------------------------------------
@@ -444,17 +452,24 @@ class ReportContext:
     fields: list[str]
     generic: list[dict]
     report_dir: Path
+    ranking: tuple[str, ...] = ()
 
 
 Section = Callable[[ReportContext], tuple[list[str], list[Path]]]
 
 
-def _verdicts_part(ctx: ReportContext) -> tuple[list[str], list[Path]]:
-    """Paired verdicts and ranking; a row is *flagged* when the honesty section flags it or its
-    Hagerman speech leak exceeds its noise term (``hagerman_leak_db > 0``)."""
+def _ranking_part(ctx: ReportContext) -> tuple[list[str], list[Path]]:
+    """The ranking by the sweep's rule (headline tables); a row is *flagged* when the honesty
+    section flags it or its Hagerman speech leak exceeds its noise term (``hagerman_leak_db > 0``)."""
     flagged = {id(r) for rows in report_sensors.honesty_flags(ctx.ok).values() for r in rows}
     flagged |= {id(r) for r in ctx.ok if (num(r.get("hagerman_leak_db")) or -math.inf) > 0.0}
-    return verdicts_section(ctx.ok, ctx.report_dir, flagged=lambda r: id(r) in flagged)
+    return ranking_section(ctx.ok, ctx.report_dir, rule=ctx.ranking or None, flagged=lambda r: id(r) in flagged)
+
+
+def _verdicts_part(ctx: ReportContext) -> tuple[list[str], list[Path]]:
+    """Paired verdicts against the baselines on the ranking rule's metrics, SNR-I, SINR-I, SRMR."""
+    rule = active_rule(ctx.ok, ctx.ranking or None)
+    return verdicts_section(ctx.ok, ctx.report_dir, metrics=(*rule, *EXTRA_VERDICT_METRICS))
 
 
 def _phone_part(ctx):
@@ -482,7 +497,7 @@ def _sources_part(ctx):
 #: section with one line, e.g. ``SECTIONS.insert(2, my_section)``; a section takes a
 #: :class:`ReportContext` and returns ``(markdown lines, written paths)``, its lines starting
 #: with a ``## `` heading (the contents list links every one).
-HEADLINE_SECTIONS: list[Section] = [_verdicts_part]
+HEADLINE_SECTIONS: list[Section] = [_ranking_part, _verdicts_part]
 SECTIONS: list[Section] = [
     _phone_part, lambda c: report_tradeoff.tradeoff_section(c.ok, c.report_dir),
     lambda c: report_measures.measures_section(c.ok, c.report_dir), _mismatch_part, _reverb_part, lambda c: _thesis_part(c.ok, c.fields, c.report_dir),
@@ -502,6 +517,8 @@ def write_report(
     *,
     meta: Mapping[str, Any] | None = None,
     listen: ListenOptions | None = None,
+    ranking: Sequence[str] = (),
+    banner: Sequence[str] = (),
 ) -> list[Path]:
     """Write the report for ``rows`` under ``out_dir/report/``; returns the written paths.
 
@@ -522,13 +539,17 @@ def write_report(
     listen : ListenOptions, optional
         Conditions given audio players in ``index.html`` (:mod:`benchmarks.report.html`;
         default: a spread over the swept axes, re-rendered from ``out_dir``'s store).
+    ranking : sequence of str
+        The sweep's ranking rule (``[sweep] ranking``); empty: the field's metrics.
+    banner : sequence of str
+        Lines shown first, above everything (a limited or partial run, rows of a stopped run).
     """
     report_dir = Path(out_dir) / REPORT_DIRNAME
     report_dir.mkdir(parents=True, exist_ok=True)
     all_rows = normalise_rows(rows)
-    ok = report_measures.drop_leaky_hagerman([r for r in all_rows if r["status"] == "ok"])
+    ok = [r for r in all_rows if r["status"] == "ok"]
     fields = [f for f in METRIC_FIELDS if any(f in r for r in all_rows)]
-    ctx = ReportContext(all_rows, ok, fields, _generic_rows(ok), report_dir)
+    ctx = ReportContext(all_rows, ok, fields, _generic_rows(ok), report_dir, tuple(ranking))
 
     overview = figures.overview_figure(ok, report_dir)
     parts = [[section(ctx) for section in group] for group in (HEADLINE_SECTIONS, SECTIONS)]
@@ -538,9 +559,12 @@ def write_report(
     paths = [p for p in written if p.suffix != ".png"]
     headline, details = ([ln for lines, _ in group for ln in lines] for group in parts)
     label = split_label(all_rows)
-    top = captioned(_overview_lines(overview, label), label)
-    rest = captioned([*headline, *_figure_lines(fig_paths, label), *details, *_files_lines(paths)], label)
-    lines = [*_meta_lines(meta, all_rows), *contents_lines([*top, *rest]), *top, *rest]
+    # the decisions first (which system, by how much, how sure), then the overview figure
+    top = captioned([*headline, *_overview_lines(overview, label)], label)
+    rest = captioned([*_figure_lines(fig_paths, label), *details, *_files_lines(paths)], label)
+    warn = [ln for b in banner for ln in (f"**⚠ {b}**", "")]
+    lines = [*_meta_lines(meta, all_rows)[:2], *warn, *_meta_lines(meta, all_rows)[2:], *contents_lines([*top, *rest]),
+             *top, *rest]
     summary = report_dir / "summary.md"
     summary.write_text("\n".join(lines) + "\n", encoding="utf-8")
     page = write_index(report_dir, summary.read_text(encoding="utf-8"), all_rows, store_dir=Path(out_dir), listen=listen)
@@ -577,7 +601,8 @@ _AVERAGES_COLUMNS = ("enhancer", "thesis_system", "noise", "snr_values_db", "snr
 def _thesis_part(ok, fields, report_dir: Path) -> tuple[list[str], list[Path]]:
     """Rows at the thesis' conditions beside its tables: two CSVs and two sections (or a note)."""
     comparison = thesis_comparison([r for r in ok if not report_thesis_repro.is_repro_row(r)])
-    repro = report_thesis_repro.repro_section(ok)  # the thesis' own simulation, cell by cell
+    # the thesis' own simulation, cell by cell, with the search's results found next to the store
+    repro = report_thesis_repro.repro_section(ok, search_results=find_results(report_dir.parent))
     if not comparison:
         if repro:
             return repro, []

@@ -1,5 +1,11 @@
 """Report glue: from a results store on disk to ``DIR/report`` (the report itself is
-:mod:`benchmarks.report.core`; this module only reads the store and its run metadata)."""
+:mod:`benchmarks.report.core`; this module only reads the store and its run metadata).
+
+What the store's ``runs`` table says about the rows is said on the page, never averaged in
+silently (:func:`coverage_banner`): a run limited to ``N of M`` conditions of its sweep, rows of
+a run that stopped (interrupted, failed) or never finished, and rows of other sweep versions
+(left out and counted).  The sweep's ``[sweep] ranking`` rule is read from the last run's TOML.
+"""
 
 from __future__ import annotations
 
@@ -29,12 +35,76 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None,
         if own:
             store.close()
     meta = report_meta(runs, Path(out_dir) / "results.sqlite")
+    banner: list[str] = []
     if version is not None:
         # Never average rows of two sweep versions: the store's current version only.
         other = sum(r.get("sweep_version") not in (None, version) for r in rows)
         rows = [r for r in rows if r.get("sweep_version") in (None, version)]
         meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
-    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen))
+        if other:
+            banner.append(f"{other} rows of other sweep versions are in the store and not shown.")
+    sweep = last_sweep(runs)
+    banner += coverage_banner(rows, runs, sweep)
+    ranking = sweep.ranking if sweep is not None else ()
+    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen, ranking=ranking, banner=banner))
+
+
+def last_sweep(runs: Sequence[Mapping[str, Any]]):
+    """The last run's sweep with its ``--seeds`` / ``--seed`` / ``--split`` applied (None when unreadable)."""
+    from benchmarks.run.sweep import parse_sweep
+    from scenesim.errors import ScenesimError
+
+    if not runs or not runs[-1].get("config_toml"):
+        return None
+    opts = _options(runs[-1])
+    try:
+        sweep = parse_sweep(runs[-1]["config_toml"], source=str(runs[-1].get("source")))
+        if opts.get("split"):
+            sweep = sweep.with_split(opts["split"])
+        if opts.get("seeds"):
+            sweep = sweep.with_seeds(int(opts["seeds"]))
+        if opts.get("seed"):
+            sweep = sweep.with_seed(int(opts["seed"]))
+    except (ScenesimError, ValueError, TypeError):
+        return None
+    return sweep
+
+
+def _options(run: Mapping[str, Any]) -> dict[str, Any]:
+    try:
+        return json.loads(run.get("options_json") or "{}")
+    except ValueError:
+        return {}
+
+
+def coverage_banner(rows: Sequence[Mapping[str, Any]], runs: Sequence[Mapping[str, Any]], sweep) -> list[str]:
+    """Warnings for the top of the page: ``N of M conditions`` when the rows cover part of the
+    sweep (with the ``--limit`` that made it so), and the rows written by runs that did not finish.
+
+    >>> coverage_banner([{"condition_id": "a", "run_id": "r1"}],
+    ...                 [{"run_id": "r1", "status": "interrupted", "started_at": "t0"}], None)
+    ['1 of these rows were written by run r1 (started t0), which ended interrupted: they are included.']
+    """
+    out = []
+    if sweep is not None:
+        expected = {c.id for c in sweep.conditions()}
+        have = {r.get("condition_id") for r in rows} & expected
+        if len(have) < len(expected):
+            limit = _options(runs[-1]).get("limit") if runs else None
+            why = f" (the last run was limited: --limit {limit})" if limit else ""
+            out.append(f"Partial run: {len(have)} of {len(expected)} conditions of sweep '{sweep.name}' are in "
+                       f"this report{why}; points and intervals hold fewer seeds and conditions than the sweep "
+                       "(every caption gives its n).")  # fmt: skip
+    by_run: dict[Any, int] = {}
+    for r in rows:
+        by_run[r.get("run_id")] = by_run.get(r.get("run_id"), 0) + 1
+    for run in runs:
+        n = by_run.get(run.get("run_id"), 0)
+        if n and run.get("status") != "finished":
+            ended = f"ended {run['status']}" if run.get("status") else "never finished"
+            out.append(f"{n} of these rows were written by run {run['run_id']} (started {run.get('started_at')}), "
+                       f"which {ended}: they are included.")  # fmt: skip
+    return out
 
 
 def report_meta(runs: Sequence[Mapping[str, Any]], store_path: Path) -> dict[str, str]:

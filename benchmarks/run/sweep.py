@@ -321,7 +321,15 @@ PARAMETERS: dict[str, _Param] = {
 
 _AXIS_ALIASES = {"seeds": "seed"}  # axis spelling -> parameter
 _TOP_TABLES = ("sweep", "axes", "fixed", "rooms", "enhancer_params")
-_SWEEP_KEYS = ("name", "description", "split")
+_SWEEP_KEYS = ("name", "description", "split", "ranking")
+#: Metrics a sweep's ``[sweep] ranking = [...]`` may name (result columns, higher is better); the
+#: report ranks by them in turn (:mod:`benchmarks.report.ranking`).
+RANKABLE_METRICS = ("pesq_wb_out", "pesq_nb_out", "pesq_nb_raw_out", "estoi_out", "stoi_out", "si_sdr_out_db",
+                    "si_sdr_i_db", "snr_i_db", "sinr_i_db", "srmr_out", "dnsmos_ovrl", "dnsmos_sig", "dnsmos_bak",
+                    "dnsmos_p808")
+#: The field's metrics, the report's ranking rule when a sweep gives none: wide-band PESQ
+#: (P.862.2 MOS-LQO), ESTOI, SI-SDR, then DNSMOS P.835 OVRL where computed.
+DEFAULT_RANKING = ("pesq_wb_out", "estoi_out", "si_sdr_out_db", "dnsmos_ovrl")
 _ROOM_KEYS = ("dims_m", "pair_center_m", "axis_azimuth_deg")
 
 
@@ -496,6 +504,9 @@ class Sweep:
     split : {"all", "dev", "test"}
         The data split every condition draws from (:mod:`data_recipes.splits`); part of each
         condition's id (except ``"all"``), not of the sweep's version.
+    ranking : tuple of str
+        ``[sweep] ranking``: the metrics the report ranks by, in turn (:data:`RANKABLE_METRICS`;
+        empty: :data:`DEFAULT_RANKING`).  Decides no number of a row: not part of the version.
     """
 
     name: str
@@ -508,6 +519,7 @@ class Sweep:
     rooms: Mapping[str, Room] = field(default_factory=dict)
     seed_offset: int = 0
     split: str = "all"
+    ranking: tuple[str, ...] = ()
 
     def conditions(self) -> list[Condition]:
         """All conditions in deterministic order (Cartesian product, SNR innermost).
@@ -756,8 +768,9 @@ class _Parser:
 
         split = self._split(data)
         meta = data.get("sweep", {})
+        ranking = self._ranking(meta)
         for key in meta:
-            if key == "split":
+            if key in ("split", "ranking"):
                 continue
             if key not in _SWEEP_KEYS:
                 raise self.error(("sweep",), key, f"unknown key; expected one of {', '.join(_SWEEP_KEYS)}")
@@ -794,10 +807,22 @@ class _Parser:
             axes=axes,
             rooms=rooms,
             split=split,
+            ranking=ranking,
         )
         self._check_room_rt60(sweep, data)
         self._check_geometry(sweep, data)
         return sweep
+
+    def _ranking(self, meta: dict) -> tuple[str, ...]:
+        """``[sweep] ranking``: a non-empty list of :data:`RANKABLE_METRICS`, without repeats (() when absent)."""
+        if "ranking" not in meta:
+            return ()
+        value = meta["ranking"]
+        allowed = "a non-empty list of distinct metrics among " + ", ".join(repr(m) for m in RANKABLE_METRICS)
+        if (not isinstance(value, list) or not value or len(set(map(str, value))) != len(value)
+                or not all(isinstance(v, str) and v in RANKABLE_METRICS for v in value)):
+            raise self.error(("sweep",), "ranking", f"expected {allowed}, got {value!r}")
+        return tuple(value)
 
     def _split(self, data: dict) -> str:
         """The sweep's data split, from ``[sweep]`` or ``[fixed]`` (not both; never an axis)."""
