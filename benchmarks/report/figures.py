@@ -52,10 +52,47 @@ def _enhancers(rows) -> list[str]:
     return sorted(names, key=lambda n: (T.system_rank(n), str(n)))
 
 
-#: Okabe & Ito (2008) colour-blind-safe palette (its yellow, unreadable on white, swapped for
-#: Tol's wine); with more systems the markers tell them apart.
-PALETTE = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#000000", "#882255")
-MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+#: 16 colour-blind-safe colours: Okabe & Ito (2008) without its yellow (unreadable on white),
+#: then Paul Tol's muted scheme (2021, "Colour schemes", SRON/EPS/TN/09-002) and two of his
+#: bright scheme's; no colour is repeated.
+PALETTE = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9", "#000000",
+           "#882255", "#332288", "#117733", "#44AA99", "#88CCEE", "#999933", "#AA4499", "#DDCC77", "#BBBBBB")
+#: 12 markers: style ``i`` is (colour ``i mod 16``, marker ``i mod 12``), all distinct for i < 48.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "h", "p")
+#: Systems with a fixed style, in this order (the thesis' systems first): a system keeps its
+#: colour and marker in every report.  Every registered name is here (tested); names not
+#: here (versioned ``name@1``, plugins) take one of the remaining styles by a stable hash.
+KNOWN_SYSTEMS = (
+    "passthrough", "eb", "ss", "eb-ss", "eb-robust", "eb-robust-ss", "mmse-lsa", "superdirective", "mvdr", "mwf",
+    "mvdr-ss", "webrtc-ns", "rnnoise", "dfn3", "eb-robust-dfn3", "wpe", "wpe-eb-robust", "wpe-eb-robust-ss",
+    "cardioid", "hypercardioid", "das", "eb-subband", "mic-calibration", "ss-ms2001", "eb-gated", "eb-spp",
+    "eb-spp-ss", "eb-robust-blind", "eb-robust-blind-ss",
+)  # fmt: skip
+N_STYLES = 48
+
+
+def system_style(name: str) -> tuple[str, str]:
+    """``(colour, marker)`` of a system, the same in every report and figure.
+
+    A name of :data:`KNOWN_SYSTEMS` takes the style of its position; any other name one of
+    the remaining ``N_STYLES - len(KNOWN_SYSTEMS)`` styles by SHA-256 of the name (stable
+    across runs and machines; two unknown names may share one).
+
+    >>> system_style("passthrough"), system_style("eb")
+    (('#0072B2', 'o'), ('#E69F00', 's'))
+    >>> system_style("my-plugin") == system_style("my-plugin")
+    True
+    """
+    import hashlib
+
+    if name in KNOWN_SYSTEMS:
+        i = KNOWN_SYSTEMS.index(name)
+    else:
+        spare = N_STYLES - len(KNOWN_SYSTEMS)
+        i = len(KNOWN_SYSTEMS) + int(hashlib.sha256(str(name).encode("utf-8")).hexdigest(), 16) % spare
+    return PALETTE[i % len(PALETTE)], MARKERS[i % len(MARKERS)]
+
+
 #: Resolution of every saved figure (a test lowers it to render quickly).
 DPI = 110
 #: zlib level of the PNGs: the same pixels; 3 instead of Pillow's 6 encodes a report's 15
@@ -64,11 +101,11 @@ PNG_COMPRESS_LEVEL = 3
 
 
 def _colours(names: Sequence[str]) -> dict[str, Any]:
-    return {name: PALETTE[i % len(PALETTE)] for i, name in enumerate(names)}
+    return {name: system_style(name)[0] for name in names}
 
 
 def _markers(names: Sequence[str]) -> dict[str, str]:
-    return {name: MARKERS[i % len(MARKERS)] for i, name in enumerate(names)}
+    return {name: system_style(name)[1] for name in names}
 
 
 def interval_words(n: int) -> str:
@@ -80,6 +117,33 @@ def interval_words(n: int) -> str:
     if n < 2:
         return "1 seed, no interval"
     return f"min–max over {n} seeds" if n < MIN_T_SEEDS else f"95 % t-interval over {n} seeds"
+
+
+def seed_counts(rows: Sequence[dict], keys: Sequence[str]) -> list[int]:
+    """The number of seeds behind each drawn point: distinct seeds per group of ``keys``.
+
+    >>> seed_counts([{"e": "a", "seed": 0}, {"e": "a", "seed": 1}, {"e": "b", "seed": 0}], ("e",))
+    [2, 1]
+    """
+    groups: dict[tuple, set] = {}
+    for r in rows:
+        groups.setdefault(tuple(r.get(k) for k in keys), set()).add(r.get("seed"))
+    return [len(v) for v in groups.values()]
+
+
+def n_words(counts: Sequence[int]) -> str:
+    """How the points' intervals are drawn, from the seeds each point actually holds.
+
+    >>> n_words([5, 5]), n_words([1, 3])
+    ('95 % t-interval over 5 seeds', 'n = 1–3 seeds per point (1: no interval; 2–4: min–max; ≥ 5: 95 % t-interval)')
+    """
+    if not counts:
+        return "no points"
+    lo, hi = min(counts), max(counts)
+    if lo == hi:
+        return interval_words(lo)
+    return (f"n = {lo}–{hi} seeds per point (1: no interval; 2–{MIN_T_SEEDS - 1}: min–max; "
+            f"≥ {MIN_T_SEEDS}: 95 % t-interval)")
 
 
 def _swept_noises(sel: Sequence[dict], vary: str) -> list:
@@ -206,10 +270,6 @@ def _mark_clipped(ax, ends, *, vertical: bool = True) -> None:
         ax._clip_noted = True
 
 
-def _n_seeds(rows: Sequence[dict]) -> int:
-    return len(distinct(rows, "seed"))
-
-
 def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     """One PNG per noise present: SNR-I (left) and output raw PESQ (right) vs input SNR, per system.
 
@@ -219,7 +279,7 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     seed are grouped by their noise field instead of their azimuth.
     """
     geo_keys = ("rt60_s", "speech_az_deg", "noise_az_deg")
-    rows = group_drawn(rows)
+    rows = [r for r in group_drawn(rows) if num(r.get("snr_in_db")) is not None]  # no empty figure
     thesis_rows = [r for r in rows if T.is_thesis_condition(r)]
     if thesis_rows:
         subset, at_thesis = thesis_rows, True
@@ -255,7 +315,8 @@ def snr_sweep_figures(rows: Sequence[dict], out_dir: Path) -> list[Path]:
         ax1.legend(fontsize=7, loc="best", ncol=2 if len(names) > 5 else 1)
         where = "thesis geometry" if at_thesis else _geo_text(geo)
         thesis = "; thesis' printed values dashed" if drew_thesis else ""
-        fig.suptitle(f"{noise}: {len(names)} systems vs input SNR ({where}); {interval_words(_n_seeds(sel))}{thesis}",
+        fig.suptitle(f"{noise}: {len(names)} systems vs input SNR ({where}); "
+                     f"{n_words(seed_counts(sel, ('enhancer', 'snr_in_db')))}{thesis}",
                      fontsize=9)  # fmt: skip
         fig.tight_layout()
         paths.append(save_figure(fig, out_dir / f"snr_pesq_vs_input_snr_{noise}.png"))
@@ -295,7 +356,7 @@ def rt60_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     axes[0, 0].legend(fontsize=7, loc="best")
     fig.suptitle(
         f"{len(names)} systems vs RT60 (speech {angles[0]:g}°, noise {angles[1]:g}°; mean over input SNR "
-        f"{', '.join(f'{s:g}' for s in snrs)} dB per seed; {interval_words(_n_seeds(sel))})",
+        f"{', '.join(f'{s:g}' for s in snrs)} dB per seed; {n_words(seed_counts(sel, ('noise', 'enhancer', 'rt60_s')))})",
         fontsize=9,
     )
     fig.tight_layout()
@@ -364,8 +425,9 @@ def azimuth_figure(rows: Sequence[dict], out_dir: Path) -> list[Path]:
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(4, max(1, len(labels))), fontsize=8)
     height = 4.6 * n_rows + 0.6 + legend_h
+    counts = seed_counts(every, ("noise", "enhancer", "noise_az_deg", *AZIMUTH_FIXED))
     fig.suptitle(f"SNR-I (dB, radius) vs noise azimuth (°), {len(names)} systems; mean over "
-                 f"{_n_seeds(every)} seed(s)", fontsize=10)  # fmt: skip
+                 f"{min(counts)}–{max(counts)} seed(s) per point", fontsize=10)  # fmt: skip
     fig.tight_layout(rect=(0, (legend_h + 0.2) / height, 1, 0.95))
     return [save_figure(fig, out_dir / "snr_i_vs_noise_azimuth.png")]
 
@@ -416,8 +478,9 @@ def overview_figure(ok: Sequence[dict], out_dir: Path) -> list[Path]:
     if handles:
         axes[0, 0].legend(handles, labels, fontsize=7, loc="best", ncol=2 if len(labels) > 5 else 1)
     what = "against RT60" if x_is_key else "quality against SNR-I"
+    keys = ("noise", "enhancer", x_f) if x_is_key else ("noise", "enhancer")
     fig.suptitle(f"{len(names)} systems, {what}, per noise: mean over each seed's conditions; "
-                 f"{interval_words(_n_seeds(ok))}", fontsize=9)  # fmt: skip
+                 f"{n_words(seed_counts(ok, keys))}", fontsize=9)  # fmt: skip
     fig.tight_layout()
     return [save_figure(fig, out_dir / "overview.png")]
 

@@ -1,8 +1,9 @@
 """Report section for issue 16's measures: distortion, G.160, attribution, per-octave SNR-I, bounds.
 
-* :func:`drop_leaky_hagerman` -- rows whose ``hagerman_leak_db`` is above 0 dB lose their
-  ``snr_i_hagerman_db`` (the phase-inversion "noise" is then mostly speech leaking through the
-  change of the system between its two runs), so no average uses it.
+* :func:`leaky_count` -- rows whose ``hagerman_leak_db`` is above 0 dB (the phase-inversion
+  "noise" is then mostly speech leaking through the change of the system between its two
+  runs).  Every Hagerman average is over **all** rows, leaky ones included, with this count
+  beside it: dropping them would hide exactly what phase inversion is there to expose.
 * :func:`measures_section` -- tables of ``speech_jitter_db`` / ``hagerman_leak_db``, the G.160
   measures beside the recommendation's target ranges, ``snr_i_spectral_db`` /
   ``snr_i_spatial_db``, and one figure per system of the per-octave SNR-I beside the bounds
@@ -44,19 +45,13 @@ JITTER_SNR_FROM_DB = 15.0
 _FIELDS = ("snr_i_db", "snr_i_spectral_db", "snr_i_spatial_db", *G160_COLUMNS)
 
 
-def drop_leaky_hagerman(ok: Sequence[dict]) -> list[dict]:
-    """Copies of ``ok`` where ``hagerman_leak_db > 0`` blanks ``snr_i_hagerman_db`` (kept otherwise).
+def leaky_count(rows: Sequence[dict]) -> int:
+    """How many of ``rows`` have ``hagerman_leak_db > 0`` (their Hagerman SNR-I measures the leak).
 
-    >>> rows = drop_leaky_hagerman([{"hagerman_leak_db": 2.0, "snr_i_hagerman_db": 9.0},
-    ...                             {"hagerman_leak_db": -20.0, "snr_i_hagerman_db": 9.0}])
-    >>> [r["snr_i_hagerman_db"] for r in rows]
-    [None, 9.0]
+    >>> leaky_count([{"hagerman_leak_db": 2.0}, {"hagerman_leak_db": -20.0}, {}])
+    1
     """
-    out = []
-    for r in ok:
-        leak = num(r.get("hagerman_leak_db"))
-        out.append({**r, "snr_i_hagerman_db": None} if leak is not None and leak > 0.0 else r)
-    return out
+    return sum((num(r.get("hagerman_leak_db")) or -math.inf) > 0.0 for r in rows)
 
 
 def _db_text(value) -> str:
@@ -93,7 +88,7 @@ def distortion_lines(rows: Sequence[dict]) -> list[str]:
         if all(j is None for j in jit):
             continue
         high = [r.get("speech_jitter_db") for r in sel if (num(r.get("snr_in_db")) or 0.0) >= JITTER_SNR_FROM_DB]
-        leaky = sum((num(r.get("hagerman_leak_db")) or -math.inf) > 0.0 for r in sel)
+        leaky = leaky_count(sel)
         body.append([f"`{name}`", noise, _db_text(_max_db(jit)), _db_text(_max_db(high)),
                      _db_text(_max_db(r.get("hagerman_leak_db") for r in sel)), f"{leaky} / {len(sel)}"])  # fmt: skip
     if not body:
@@ -106,8 +101,9 @@ def distortion_lines(rows: Sequence[dict]) -> list[str]:
         "system; an adaptation that learns only where the talker is absent gives W1 = W2. Target "
         f"(issue 16): ≤ −30 dB in every row at input SNR ≥ {JITTER_SNR_FROM_DB:g} dB. "
         "`hagerman_leak_db`: power of the speech leak (W1 − W2) s / 2 re the noise term (W1 + W2) n / 2 of "
-        "the phase-inversion noise estimate; **rows above 0 dB have their Hagerman SNR-I left out of every "
-        "average and table** (it measures the leak, not the noise). Black boxes: not measurable (–).",
+        "the phase-inversion noise estimate; rows above 0 dB are *leaky* (their Hagerman SNR-I measures the "
+        "leak, not the noise): **every Hagerman average is over all rows, with the leaky count beside it**. "
+        "Black boxes: not measurable (–).",
         "",
         markdown_table(["system", "noise", "worst jitter (dB)", f"worst jitter, SNR ≥ {JITTER_SNR_FROM_DB:g} dB",
                         "worst leak (dB)", "rows leak > 0 dB"], body),  # fmt: skip
@@ -173,46 +169,86 @@ def attribution_lines(agg: Sequence[dict]) -> list[str]:
     ]
 
 
+def is_fixed_system(rows: Sequence[dict]) -> bool:
+    """True when every row's ``speech_jitter_db`` is −∞: a replayed system whose two Hagerman
+    runs applied the same operation, i.e. linear and time-invariant on these rows (the only
+    systems the linear bounds hold for)."""
+    jit = [num(r.get("speech_jitter_db")) for r in rows]
+    return bool(jit) and all(j is not None and j == -math.inf for j in jit)
+
+
 def octave_summary(rows: Sequence[dict]) -> list[dict[str, Any]]:
-    """Per (enhancer, noise, noise_field): mean per-octave SNR-I and self-noise limit over rows."""
+    """Per (enhancer, noise, noise_field, RT60): mean per-octave SNR-I and self-noise limit over rows,
+    ``n`` rows and ``fixed`` (:func:`is_fixed_system`)."""
     out = []
     for name, noise, field, sel in _cells(rows):
-        parsed = [json.loads(r["snr_i_octave_json"]) for r in sel if r.get("snr_i_octave_json")]
-        if not parsed:
-            continue
-        centres = parsed[0]["centre_hz"]
-        gains = np.array([p["snr_i_db"] for p in parsed if p["centre_hz"] == centres], dtype=float)
-        limits = [p["self_noise_limit_db"] for p in parsed if p["centre_hz"] == centres and p.get("self_noise_limit_db")]
-        out.append({"enhancer": name, "noise": noise, "noise_field": field, "centre_hz": centres,
-                    "snr_i_db": gains.mean(axis=0).tolist(), "n": len(gains),
-                    "self_noise_limit_db": np.mean(limits, axis=0).tolist() if limits else None})  # fmt: skip
+        for rt in sorted({num(r.get("rt60_s")) or 0.0 for r in sel}):
+            mine = [r for r in sel if (num(r.get("rt60_s")) or 0.0) == rt]
+            parsed = [json.loads(r["snr_i_octave_json"]) for r in mine if r.get("snr_i_octave_json")]
+            if not parsed:
+                continue
+            centres = parsed[0]["centre_hz"]
+            gains = np.array([p["snr_i_db"] for p in parsed if p["centre_hz"] == centres], dtype=float)
+            limits = [p["self_noise_limit_db"] for p in parsed if p["centre_hz"] == centres and p.get("self_noise_limit_db")]
+            out.append({"enhancer": name, "noise": noise, "noise_field": field, "rt60_s": rt, "centre_hz": centres,
+                        "snr_i_db": gains.mean(axis=0).tolist(), "n": len(gains), "fixed": is_fixed_system(mine),
+                        "self_noise_limit_db": np.mean(limits, axis=0).tolist() if limits else None})  # fmt: skip
     return out
 
 
+def _drawn(rec: dict) -> bool:
+    """A system whose every band's SNR-I is 0 (the input itself) would be an empty figure: not drawn."""
+    return any(abs(g) > 1e-9 for g in rec["snr_i_db"])
+
+
+def _octave_panel(ax, recs: Sequence[dict]) -> None:
+    """Per-octave SNR-I of each system of ``recs`` (one noise, one RT60) on ``ax``; the noise
+    field's linear bound only when a fixed (LTI) system is drawn, naming those it holds for."""
+    from benchmarks.report.figures import system_style
+
+    x = np.arange(len(recs[0]["centre_hz"]))
+    for rec in recs:
+        colour, marker = system_style(rec["enhancer"])
+        ax.plot(x, rec["snr_i_db"], color=colour, marker=marker, ls="-" if rec["fixed"] else "--", ms=4,
+                label=f"{rec['enhancer']}, n={rec['n']}")  # fmt: skip
+    fixed = [r["enhancer"] for r in recs if r["fixed"]]
+    bound = FIELD_BOUND_DB.get(recs[0]["noise_field"])
+    if bound is not None and fixed:
+        ax.axhline(bound, color="k", ls=":", lw=1, label=f"LTI bound {bound:.2f} dB ({', '.join(fixed)})")
+    limit = next((r["self_noise_limit_db"] for r in recs if r["self_noise_limit_db"]), None)
+    if limit:
+        ax.plot(x, limit, "r_", ms=14, mew=2, label="self-noise limit (per band)")
+    ax.set_xticks(x, [f"{c:g}" for c in recs[0]["centre_hz"]], fontsize=7)
+    ax.axhline(0.0, color="grey", lw=0.8)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("octave centre (Hz)")
+
+
 def octave_figures(summary: Sequence[dict], report_dir: Path) -> list[Path]:
-    """One PNG per system: per-octave SNR-I per noise beside the bounds of its noise field."""
+    """One PNG per noise: per-octave SNR-I of every system (a line each, in its report-wide
+    colour and marker; solid fixed systems, dashed time-varying ones), one panel per RT60.
+
+    Systems with no SNR-I in any band (``passthrough``) are left out; the linear bound of the
+    noise field is drawn only where a fixed system is, and says which."""
     paths = []
-    axes = None
-    for name in T.system_order(r["enhancer"] for r in summary):
-        recs = [r for r in summary if r["enhancer"] == name]
-        fig, axes = new_figure(1, len(recs), figsize=(4.2 * len(recs), 3.4), squeeze=False, sharey=True, reuse=axes)
-        for ax, rec in zip(axes[0], recs):
-            x = np.arange(len(rec["centre_hz"]))
-            ax.bar(x, rec["snr_i_db"], 0.6, color="tab:blue", label="SNR-I (mean)")
-            bound = FIELD_BOUND_DB.get(rec["noise_field"])
-            if bound is not None:
-                ax.axhline(bound, color="k", ls="--", lw=1, label=f"{rec['noise_field']} bound {bound:.2f} dB (linear)")
-            if rec["self_noise_limit_db"]:
-                ax.plot(x, rec["self_noise_limit_db"], "r_", ms=18, mew=2, label="self-noise limit (per band)")
-            ax.set_xticks(x, [f"{c:g}" for c in rec["centre_hz"]], fontsize=7)
-            ax.set(title=f"{rec['noise']} ({rec['noise_field']}), n={rec['n']}", xlabel="octave centre (Hz)")
-            ax.axhline(0.0, color="grey", lw=0.8)
-            ax.grid(True, axis="y", alpha=0.3)
-            ax.legend(fontsize=6, loc="upper right")
-        axes[0][0].set_ylabel("SNR-I (dB)")
-        fig.suptitle(f"{name}: per-octave SNR-I beside the bounds of a linear 2-mic system", fontsize=9)
+    kept = [r for r in summary if _drawn(r)]
+    for noise in sorted({r["noise"] for r in kept}):
+        mine = [r for r in kept if r["noise"] == noise]
+        rts = sorted({r["rt60_s"] for r in mine})
+        fig, axes = new_figure(1, len(rts), figsize=(5.2 * len(rts) + 2.4, 3.8), squeeze=False, sharey=True)
+        for ax, rt in zip(axes[0], rts):
+            recs = [r for r in mine if r["rt60_s"] == rt]
+            recs.sort(key=lambda r: T.system_order(x["enhancer"] for x in mine).index(r["enhancer"]))
+            _octave_panel(ax, recs)
+            ax.set_title(f"{noise} ({recs[0]['noise_field']})" + (f", RT60 {rt:g} s" if len(rts) > 1 else ""), fontsize=9)
+        for ax in axes[0]:
+            ax.set_ylabel("SNR-I (dB)")
+        axes[0][-1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+        n = sorted({r["n"] for r in mine})
+        fig.suptitle(f"{noise}: per-octave SNR-I, mean over n = {n[0]}{'' if len(n) == 1 else f'–{n[-1]}'} rows per "
+                     "line; solid: fixed (LTI) systems, dashed: time-varying", fontsize=9)  # fmt: skip
         fig.tight_layout()
-        paths.append(save_figure(fig, report_dir / f"octave_snr_i_{name}.png"))
+        paths.append(save_figure(fig, report_dir / f"octave_snr_i_{noise}.png"))
     return paths
 
 
@@ -294,6 +330,8 @@ def measures_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], l
              *octave_figures(summary, report_dir)]  # fmt: skip
     lines = ["## Distortion, G.160 and attribution", "", *distortion_lines(rows), *g160_lines(agg),
              *attribution_lines(agg), *bounds_lines(),
-             "Per-octave SNR-I per system: figures `octave_snr_i_<system>.png` (bars: mean over rows; dashed: "
-             "the noise field's linear bound; red: the per-band self-noise limit).", ""]  # fmt: skip
+             "Per-octave SNR-I per noise: figures `octave_snr_i_<noise>.png` (a line per system in its "
+             "colour; a panel per RT60 when RT60 is swept; dotted: the noise field's bound for linear "
+             "time-invariant systems, drawn only beside those; red: the per-band self-noise limit; "
+             "systems without SNR-I in any band, the input itself, are not drawn).", ""]  # fmt: skip
     return lines, paths

@@ -28,7 +28,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-from benchmarks.report.figures import MARKERS, PALETTE, interval_words, new_figure, save_figure  # noqa: E402
+from benchmarks.report.figures import n_words, new_figure, save_figure, system_style  # noqa: E402
 from benchmarks.report.tables import (  # noqa: E402
     SMALL_N_TEXT,
     aggregate_over_seeds,
@@ -157,14 +157,14 @@ def _panels(recs, x_key: str, group_key: str | None, xlabel: str, title: str, pa
     styles = ("-", "--", ":", "-.")
     specs = (("sinr_i_db", "SINR-I (dB)"), ("drr_gain_db", "DRR gain (dB)"), ("c50_gain_db", "C50 gain (dB)"), ("srmr_out", "SRMR of the output"))
     for ax, (f, label) in zip(axes, specs):
-        for i, name in enumerate(names):
+        for name in names:
             for g_i, g in enumerate(groups):
                 sel = [r for r in recs if r["enhancer"] == name and (g is None or r[group_key] == g) and r.get(f) is not None]
                 if not sel:
                     continue
                 xs = [r[x_key] for r in sel]
                 ax.errorbar(xs, [r[f] for r in sel], yerr=error_bars(sel, f), capsize=2,
-                            color=PALETTE[i % len(PALETTE)], ls=styles[g_i % 4], marker=MARKERS[i % len(MARKERS)], ms=3,
+                            color=system_style(name)[0], ls=styles[g_i % 4], marker=system_style(name)[1], ms=3,
                             label=name + (f", {group_key} {g:g}" if g is not None else ""))  # fmt: skip
         if logx:
             from matplotlib.ticker import NullFormatter, ScalarFormatter
@@ -196,8 +196,7 @@ def _achieved_figure(acoustics: Sequence[dict], path: Path) -> Path:
     ax.set(xlabel="target RT60 (s)", ylabel="achieved at the reference mic (s)", xlim=(0, hi), ylim=(0, hi))
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
-    n = max((r.get("n") or 0 for r in recs), default=0)
-    ax.set_title(f"RT60: target vs achieved (mean; {interval_words(n)})", fontsize=8)
+    ax.set_title(f"RT60: target vs achieved (mean; {n_words([r.get('n') or 0 for r in recs])})", fontsize=8)
     fig.tight_layout()
     return save_figure(fig, path)
 
@@ -234,8 +233,8 @@ def rt60_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str], lis
     acols = ["rt60_s", "n", *(x for f in ACOUSTIC_FIELDS for x in (f, f + "_ci95"))]
     paths.append(write_csv(report_dir / "reverb_acoustics.csv", acoustics, acols))
     target = target_text(rows)
-    n = max(r["n"] for r in summary)
-    paths.append(_panels(summary, "rt60_s", None, "RT60 (s)", f"{len(distinct(summary, 'enhancer'))} systems vs RT60 ({target}); mean over noises and SNRs per seed; {interval_words(n)}", report_dir / "reverb_vs_rt60.png", False))
+    n = n_words([r["n"] for r in summary])
+    paths.append(_panels(summary, "rt60_s", None, "RT60 (s)", f"{len(distinct(summary, 'enhancer'))} systems vs RT60 ({target}); mean over noises and SNRs per seed; {n}", report_dir / "reverb_vs_rt60.png", False))
     paths.append(_achieved_figure(acoustics, report_dir / "rt60_achieved.png"))
     lines = ["## Reverberation study: systems vs RT60", "",
              f"Metrics against the **{target}**; late reverberation + noise is the interference of SINR "
@@ -264,8 +263,8 @@ def distance_section(rows: Sequence[dict], report_dir: Path) -> tuple[list[str],
     acols = ["rt60_s", "distance_m", "n", *(x for f in ACOUSTIC_FIELDS for x in (f, f + "_ci95"))]
     paths.append(write_csv(report_dir / "reverb_distance_acoustics.csv", acoustics, acols))
     target = target_text(rows)
-    n = max(r["n"] for r in summary)
-    paths.append(_panels(summary, "distance_m", "rt60_s", "talker distance (m)", f"{len(distinct(summary, 'enhancer'))} systems vs talker distance ({target}); {interval_words(n)}", report_dir / "reverb_vs_distance.png", True))
+    n = n_words([r["n"] for r in summary])
+    paths.append(_panels(summary, "distance_m", "rt60_s", "talker distance (m)", f"{len(distinct(summary, 'enhancer'))} systems vs talker distance ({target}); {n}", report_dir / "reverb_vs_distance.png", True))
     crit = []
     for rt in distinct(acoustics, "rt60_s"):
         sel = sorted((r for r in acoustics if r["rt60_s"] == rt), key=lambda r: r["distance_m"])

@@ -24,8 +24,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-from benchmarks.report.figures import PALETTE, interval_words, new_figure, save_figure  # noqa: E402
-from benchmarks.report.measures import SELF_NOISE_TEXT  # noqa: E402
+from benchmarks.report.figures import n_words, new_figure, save_figure, system_style  # noqa: E402
+from benchmarks.report.measures import SELF_NOISE_TEXT, leaky_count  # noqa: E402
 from benchmarks.report.tables import (  # noqa: E402
     SMALL_N_TEXT,
     aggregate,
@@ -54,6 +54,13 @@ _TOLERANCE_KEYS = ("mic_gain_tol_db", "mic_phase_tol_deg", "mic_highpass_tol_hz"
 
 def _pm(rec: dict, f: str, digits: int | None = None) -> str:
     return stat_cell(rec, f, digits)
+
+
+def _hagerman_cell(rec: dict) -> str:
+    """The Hagerman SNR-I over **all** rows, with the leaky rows' count beside it when any."""
+    cell = _pm(rec, "snr_i_hagerman_db")
+    leaky = rec.get("hagerman_leaky") or 0
+    return cell + (f" ({leaky}/{rec['hagerman_rows']} leaky)" if leaky else "")
 
 
 # -- phones drawn per seed -----------------------------------------------------------------
@@ -88,6 +95,9 @@ def phone_summary(rows: Sequence[dict], fields: Sequence[str] = PHONE_FIELDS) ->
         thesis = T.thesis_averages().get((T.thesis_system(rec["enhancer"]) or "", rec["noise"]))
         rec["thesis_snr_i_db"] = thesis["snr_i_db"] if thesis else None
         rec["thesis_pesq_out"] = thesis["pesq_out"] if thesis else None
+        mine = [r for r in sel if tuple(r.get(k) for k in keys) == tuple(rec[k] for k in keys)]
+        rec["hagerman_leaky"] = leaky_count(mine)
+        rec["hagerman_rows"] = sum(num(r.get("snr_i_hagerman_db")) is not None for r in mine)
     order = T.system_order(r["enhancer"] for r in out)
     return sorted(out, key=lambda r: (order.index(r["enhancer"]), str(r["noise"])))
 
@@ -111,7 +121,10 @@ def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
                 ms.append(rec[f])
                 recs.append(rec)
                 ts.append(rec.get(thesis_f))
-            ax.bar(xs, ms, width, yerr=error_bars(recs, f), capsize=2, color=PALETTE[i % len(PALETTE)], label=name)
+            colour, marker = system_style(name)
+            ax.bar(xs, ms, width, yerr=error_bars(recs, f), capsize=2, color=colour)
+            # the marker on each bar's top tells systems apart where colours are close
+            ax.plot(xs, ms, ls="none", marker=marker, color=colour, mec="k", mew=0.5, ms=5, label=name)
             tx = [(x, t) for x, t in zip(xs, ts) if t is not None]
             if tx:
                 ax.plot(*zip(*tx), "k_", markersize=14, markeredgewidth=2,
@@ -123,9 +136,8 @@ def _phone_figure(summary: Sequence[dict], report_dir: Path) -> Path:
         ax.set(xlabel="noise (field)", ylabel=label)
         ax.grid(True, axis="y", alpha=0.3)
     axes[0].legend(fontsize=7, loc="best", ncol=2)
-    n = max((r["n"] for r in summary), default=0)
     fig.suptitle(f"{len(names)} systems on realistic phones (sensors drawn per seed), per noise: mean over input SNRs; "
-                 f"{interval_words(n)}; black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
+                 f"{n_words([r['n'] for r in summary])}; black bars: the thesis' printed averages (ideal mics)", fontsize=9)  # fmt: skip
     fig.tight_layout()
     return save_figure(fig, report_dir / "phone_vs_thesis.png")
 
@@ -155,7 +167,7 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
     header = ["system", "noise (field)", "SNR-I (dB)", "SNR-I Hagerman", "SNR-I in band", "PESQ out raw",
               "PESQ-I raw", "PESQ wb out", "STOI out", "n seeds", "thesis SNR-I (ideal mics)", "thesis PESQ out"]  # fmt: skip
     body = [
-        [f"`{r['enhancer']}`", f"{r['noise']} ({r['noise_field']})", _pm(r, "snr_i_db"), _pm(r, "snr_i_hagerman_db"),
+        [f"`{r['enhancer']}`", f"{r['noise']} ({r['noise_field']})", _pm(r, "snr_i_db"), _hagerman_cell(r),
          _pm(r, "snr_i_band_db"), _pm(r, "pesq_nb_raw_out"), _pm(r, "pesq_nb_raw_i"), _pm(r, "pesq_wb_out"),
          _pm(r, "stoi_out"), str(r["n"]), fmt(r["thesis_snr_i_db"], 1), fmt(r["thesis_pesq_out"])]
         for r in summary
@@ -167,7 +179,8 @@ def phone_section(ok: Sequence[dict], report_dir: Path) -> tuple[list[str], list
         "set of noise excerpts; every row records the sensors it was computed with. Per system "
         "and noise: the mean over input SNRs "
         f"({summary[0]['snr_values_db']} dB) of each seed's results, then **the mean over the seeds**; "
-        f"{SMALL_N_TEXT} SNR-I by replay of the recorded operation; *Hagerman*: "
+        f"{SMALL_N_TEXT} SNR-I by replay of the recorded operation; *Hagerman*: over all rows (leaky rows, whose "
+        "speech leak exceeds their noise term, counted beside the mean), "
         "by phase inversion; *in band*: within the band the SNR was set in. PESQ raw = raw P.862. "
         "The thesis columns are its printed averages for ideal mics in its own geometry.",
         "",
