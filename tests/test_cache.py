@@ -181,3 +181,26 @@ def test_omin_bit_identical_with_and_without_disk_cache(tmp_path, monkeypatch):
     noise_tracking.calibrate_omin(**dict(kwargs, seed=1))  # another argument set: another file
     assert len(list(tmp_path.glob("*.npy"))) == 2
     _fresh_process()
+
+
+def test_every_secondary_parameter_of_an_rir_reaches_its_cache_key(tmp_path):
+    """Oracle: the uncached computation.  Memoised RIRs that differ only in a secondary
+    parameter (high-pass corner, hybrid seed, scattering, image order, rate) are each the
+    RIR of their own parameters, never the first one computed (1e-12 of the peak)."""
+    from dataclasses import replace
+
+    from scenesim.room.cache import cached_rir
+    from scenesim.room.render import room_rir
+    from scenesim.room.shoebox import ShoeBox
+
+    cache.clear_memory_cache()
+    room = ShoeBox((5.0, 4.0, 3.0), 0.3, scattering=0.5)
+    src, mics = (1.0, 1.2, 1.4), np.array([(3.5, 2.5, 1.2)])
+    base = dict(fs=16000, length_s=0.2, highpass_hz=20.0, seed=0)
+    variants = [({}, room), ({"highpass_hz": 200.0}, room), ({"seed": 1}, room),
+                ({}, replace(room, scattering=0.2)), ({"max_order": 3}, room), ({"fs": 8000}, room)]
+    for change, r in variants:
+        kw = {**base, **change}
+        got = cached_rir(r, src, mics, cache_dir=tmp_path, **kw)
+        want = room_rir(r, src, mics, **kw)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max(), err_msg=str(change))
