@@ -167,8 +167,8 @@ def srmr(x, fs: int) -> float:
     -------
     float
 
-    Example
-    -------
+    Examples
+    --------
     >>> import numpy as np
     >>> t = np.arange(16000) / 16000
     >>> x = np.sin(2 * np.pi * 500 * t) * (1 + np.sin(2 * np.pi * 4 * t))

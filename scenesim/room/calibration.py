@@ -283,8 +283,8 @@ def calibrate_room(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=None, 
     ShoeBox
         With the calibrated ``absorption`` and ``target_rt60_s`` recorded.
 
-    Example
-    -------
+    Examples
+    --------
     >>> room = calibrate_room((6, 5, 3), 0.4)
     >>> round(room.target_rt60_s, 2), room.wall_absorption.shape
     (0.4, (6,))

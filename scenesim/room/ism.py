@@ -520,8 +520,8 @@ def image_source_rir_bands(
     ``radius_m`` (it limits the specular images only).  So
     ``merge_bands(image_source_rir_bands(...))`` is ``image_source_rir(..., bands_hz=...)``.
 
-    Example
-    -------
+    Examples
+    --------
     >>> from scenesim.room.shoebox import ShoeBox
     >>> h = image_source_rir_bands(ShoeBox((4, 3, 2.5), 0.3), (1, 1, 1), (3, 2, 1.5), fs=8000,
     ...                            n_bands=2, max_order=2)
@@ -655,8 +655,8 @@ def image_source_rir(
     -------
     (n_mics, n_taps) float64 array, physical scale ``g / (4 pi r)``, tap 0 = emission time.
 
-    Example
-    -------
+    Examples
+    --------
     >>> from scenesim.room.shoebox import ShoeBox
     >>> h = image_source_rir(ShoeBox((4, 3, 2.5), 0.3), (1, 1, 1), (3, 2, 1.5), fs=8000, max_order=3)
     >>> h.shape[0]

@@ -123,8 +123,8 @@ def render_moving_source(signal, room: ShoeBox, path_m: Callable | np.ndarray, m
         ``method="doppler"``: images arriving within this time move with the source; the rest
         is a fixed late filter (default :data:`scenesim.room.ism.DEFAULT_MIXING_TIME_S`).
 
-    Example
-    -------
+    Examples
+    --------
     >>> room = ShoeBox((5, 4, 3), 0.4)
     >>> x = np.random.default_rng(0).standard_normal(8000)
     >>> y = render_moving_source(x, room, [(1, 1, 1.5), (1, 3, 1.5)], [(4, 2, 1.5)], fs=16000,

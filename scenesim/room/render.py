@@ -95,8 +95,8 @@ def room_rir(room: ShoeBox, source_m, mics_m, *, fs: int, highpass_hz: float | N
     high-pass.  ``highpass_hz`` defaults to :data:`DEFAULT_HIGHPASS_HZ` (None: raw image sum).
     Other keywords as :func:`scenesim.room.ism.image_source_rir` (``max_order``, ``length_s``, ...).
 
-    Example
-    -------
+    Examples
+    --------
     >>> from scenesim.room.air import AirAbsorption
     >>> room = ShoeBox((6, 5, 3), (0.1, 0.3), bands_hz=(500, 2000), air=AirAbsorption())
     >>> room_rir(room, (1, 1, 1.5), (4, 3, 1.5), fs=16000, length_s=0.2).shape

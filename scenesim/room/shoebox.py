@@ -122,8 +122,8 @@ class ShoeBox:
         Non-positive dims, absorption outside (0, 1], both or neither of absorption/rt60_s,
         or an RT60 the room cannot have (Sabine absorption > 1).
 
-    Example
-    -------
+    Examples
+    --------
     >>> ShoeBox((6, 5, 3), (0.1, 0.2), bands_hz=(500, 1000)).wall_absorption.shape
     (6, 2)
     """

@@ -198,7 +198,7 @@ def wind_noise(
         a = sqrt((1 + |gamma|)/2),  b = sqrt((1 - |gamma|)/2),
 
     on the full-length real FFT as :func:`diffuse_noise` does.  Wind is nearly incoherent at
-    speech frequencies for a 2 cm pair (|gamma| ~0.12 at 500 Hz, 5 m/s along the flow).
+    speech frequencies for a 2 cm pair (``|gamma|`` ~0.12 at 500 Hz, 5 m/s along the flow).
     ``**corcos``: ``flow_azimuth_deg``, ``alpha_along``, ``alpha_across``, ``convection_ratio``.
 
     >>> x = wind_noise(16000, 0.0214, fs=16000, wind_speed_mps=5.0, rng=np.random.default_rng(0))

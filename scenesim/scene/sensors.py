@@ -115,9 +115,9 @@ class MicResponse:
     Parameters
     ----------
     gain_db : float
-        Sensitivity re nominal, dB (|gain| <= 20).
+        Sensitivity re nominal, dB (``|gain| <= 20``).
     phase_deg : float
-        Frequency-independent phase offset, degrees (|phase| <= 90).
+        Frequency-independent phase offset, degrees (``|phase| <= 90``).
     highpass_hz : float
         Corner of the first-order high-pass in Hz; 0 = none.
 
