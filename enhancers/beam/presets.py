@@ -17,7 +17,7 @@ Measured on ``phone`` (5 seeds, every noise and SNR), ``eb-robust-blind-ss`` aga
 135 / 240 deg / diffuse.  Those are the seeds it was tuned on: on seeds 5-9, 6 / 7 rows of 60 are above
 -30 dB (worst -17.2 / -20.1; ``eb-robust-ss`` -5.8 / -6.9).  Its cost: ``eb-robust``'s compiled kernel does
 not cover it (the numpy step: batch real-time factor 0.038 against 0.003, ``benchmarks.perf.enhancer_rtf``),
-and the margins are thin (the README's issue-16 paragraph).
+and the margins are thin (docs/history/2026-12-calibration-talker-blind.md).
 
 >>> EB_ROBUST_BLIND["frame_start_s"], EB_ROBUST_BLIND["beta_model"], EB_ROBUST_BLIND_SS["gain_smooth"]
 (0.13, 'delayed', 0.55)
