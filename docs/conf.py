@@ -24,7 +24,6 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
-    "sphinx.ext.viewcode",
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
@@ -44,7 +43,7 @@ autosummary_generate = True
 autosummary_imported_members = True
 autodoc_default_options = {"members": False, "inherited-members": False}
 autodoc_typehints = "none"  # numpydoc's Parameters sections say the types, with units
-numpydoc_show_class_members = False
+numpydoc_show_class_members = False  # members' tables: numpydoc 1.11 fails on enhancers.Chain's
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 
