@@ -21,7 +21,7 @@ from test_evaluate import FixedGain, make_scene
 
 from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
 from benchmarks.metrics.evaluate import ROW_COLUMNS, evaluate_enhancer, input_metrics
-from benchmarks.metrics.g160 import g160_measures, g160_measures_blackbox
+from benchmarks.metrics.g160 import frame_activity, g160_measures, g160_measures_blackbox
 from benchmarks.metrics.row_measures import MEASURE_COLUMNS, distortion_columns
 from enhancers.core.base import Enhancer, Params, Result, Tags
 from scenesim.validate import check_finite_number
@@ -116,13 +116,28 @@ def test_jitter_of_a_noise_sign_dependent_gain_is_the_closed_form(scene, inputs)
     assert row["hagerman_leak_db"] == pytest.approx(leak, abs=1e-9)
 
 
+def _with_pause(scene, from_s: float = 1.0):
+    """``scene`` with its speech silent after ``from_s``: syllables 125 ms apart are one P.56
+    utterance (the 0.2 s hangover bridges them), so G.160 needs a real pause."""
+    import dataclasses
+
+    keep = (np.arange(scene.mixture.shape[1]) < from_s * scene.fs).astype(float)
+    speech = scene.speech_image * keep
+    return dataclasses.replace(scene, speech_image=speech, mixture=speech + scene.noise_image,
+                               reference=scene.reference * keep)
+
+
 def test_black_boxes_have_no_jitter_or_leak(scene, inputs):
     from test_evaluate import DelayedLowpassRamp
 
     row = evaluate_enhancer(DelayedLowpassRamp(replayable=False), scene, input_metrics=inputs)
     assert row["snr_method"] == "phase-inversion"
     assert row["speech_jitter_db"] is None and row["hagerman_leak_db"] is None
-    assert row["g160_snri_db"] is not None and row["snr_i_spectral_db"] is not None
+    assert row["g160_snri_db"] is None  # no pause of 0.4 s in 4 Hz syllables: G.160 undefined, not an error
+    assert row["snr_i_spectral_db"] is not None
+    paused = _with_pause(scene)
+    row = evaluate_enhancer(DelayedLowpassRamp(replayable=False), paused, input_metrics=input_metrics(paused))
+    assert row["g160_snri_db"] is not None and row["g160_snri_exact_db"] is None  # black box: no exact value
 
 
 def _tone(freq, amp, n, fs=8000):
@@ -146,24 +161,35 @@ G_FS = 8000  # 10 ms = 80 samples: 500 Hz and 1 kHz tones have whole cycles in e
 
 def _g160_signals():
     """Speech frames 0-99 at two levels (1.0 and 0.5 amplitude, 50 frames each), frames 100-119
-    at 0.05 (-26 dB: neither speech nor pause), frames 120-219 silent; noise 0.1 everywhere."""
+    at 0.05 (-26 dB), frames 120-219 silent; noise 0.1 everywhere.  Also the per-frame speech
+    amplitude and the P.56 frame classes (:func:`frame_activity`, tested on its own below)."""
     frame = 80
     amp = np.concatenate([np.full(50, 1.0), np.full(50, 0.5), np.full(20, 0.05), np.zeros(100)])
     env = np.repeat(amp, frame)
     s = env * _tone(500, 1.0, env.size, G_FS)
     n = _tone(1000, 0.1, env.size, G_FS)
-    speech = np.repeat(np.arange(amp.size) < 100, frame)
-    return s, n, speech
+    speech_f, pause_f = frame_activity(s, G_FS)
+    return s, n, amp, speech_f, pause_f
+
+
+def test_g160_p56_frames_keep_the_hangover_out_of_the_pauses():
+    """P.56 activity: the loud frames are speech, silent ones never; no frame within the 0.2 s
+    hangover of activity (either side) is noise-only -- the old rule (30 dB below the active
+    level) made the -26 dB frames' successors noise-only right after the speech."""
+    _, _, amp, speech, pause = _g160_signals()
+    assert speech[2:100].all() and not speech[120:].any() and not speech[:2].any()
+    touched = np.flatnonzero(~pause)
+    assert touched[0] == 0 and (np.diff(touched) == 1).all()  # one block: the speech and its hangovers
+    assert touched[-1] >= int(np.flatnonzero(speech)[-1]) + round(0.2 / 0.01)
+    assert pause.sum() < 100 and (amp[pause] == 0).all()
 
 
 def test_g160_white_box_gate_closed_form():
-    # Oracle: frame powers are exact (A^2 / 2); the speech level is the mean dB over the 100
-    # speech frames (1.0 and 0.5 amplitude, not the 0.05 ones), noise over the 100 silent ones.
-    # A gate with gain a on speech frames and b elsewhere: SNRI = 20 log a/b, TNLR = 20 log b,
-    # DSN = 20 log a -- whatever the levels.
-    s, n, speech = _g160_signals()
+    # Oracle: frame powers are exact (A^2 / 2).  A gate with gain a on the speech frames and b
+    # on the rest: SNRI = 20 log a/b, TNLR = 20 log b, DSN = 20 log a -- whatever the levels.
+    s, n, _, speech, _ = _g160_signals()
     a, b = 0.9, 0.2
-    gain = np.where(speech, a, b)
+    gain = np.repeat(np.where(speech, a, b), 80)
     m = g160_measures(s, s, n, gain * s, gain * n, G_FS)
     assert m["g160_snri_db"] == pytest.approx(20 * np.log10(a / b), abs=1e-9)
     assert m["g160_tnlr_db"] == pytest.approx(20 * np.log10(b), abs=1e-9)
@@ -173,18 +199,35 @@ def test_g160_white_box_gate_closed_form():
 def test_g160_black_box_gate_closed_form():
     # Oracle: black-box speech power of a frame = its power minus the mean pause-frame noise
     # power: in: A^2/2; out: a^2 (A^2/2 + N) - b^2 N with N = 0.1^2/2.  Levels are means of dB
-    # over the two speech amplitudes; the -26 dB frames count in neither class.
-    s, n, speech = _g160_signals()
+    # over the speech frames (P.56 classes), noise over the noise-only ones.
+    s, n, amp, speech, _ = _g160_signals()
     a, b = 0.9, 0.2
-    y = np.where(speech, a, b) * (s + n)
+    y = np.repeat(np.where(speech, a, b), 80) * (s + n)
     m = g160_measures_blackbox(s, s + n, y, G_FS)
     pn = 0.1**2 / 2
-    ps = np.array([1.0, 0.25]) / 2
+    ps = amp[speech] ** 2 / 2
     snr_in = np.mean(10 * np.log10(ps)) - 10 * np.log10(pn)
     snr_out = np.mean(10 * np.log10(a**2 * (ps + pn) - b**2 * pn)) - 10 * np.log10(b**2 * pn)
     assert m["g160_snri_db"] == pytest.approx(snr_out - snr_in, abs=1e-9)
     assert m["g160_tnlr_db"] == pytest.approx(20 * np.log10(b), abs=1e-9)
     assert m["g160_dsn_db"] == pytest.approx(snr_out - snr_in + 20 * np.log10(b), abs=1e-9)
+
+
+def test_g160_headline_is_the_estimate_for_every_system_and_exact_values_sit_beside(scene):
+    """One footing (issue 32): a replayable fixed low-pass gets the recommendation's estimate in
+    ``g160_*_db`` and the exact replayed values in ``g160_*_exact_db``.  Oracle: the two
+    functions of benchmarks.metrics.g160 on the same signals (the filter declares no latency,
+    so the output is ``lfilter`` of the mixture); tolerance 1e-9 dB."""
+    paused = _with_pause(scene)
+    row = evaluate_enhancer(FixedLowpass(), paused, input_metrics=input_metrics(paused))
+    s0, n0, x0 = (np.asarray(a, dtype=float)[0] for a in (paused.speech_image, paused.noise_image, paused.mixture))
+    h = FixedLowpass.taps
+    est = g160_measures_blackbox(s0, x0, lfilter(h, [1.0], x0), FS)
+    exact = g160_measures(s0, s0, n0, lfilter(h, [1.0], s0), lfilter(h, [1.0], n0), FS)
+    for k in ("snri", "tnlr", "dsn"):
+        assert row[f"g160_{k}_db"] == pytest.approx(est[f"g160_{k}_db"], abs=1e-9)
+        assert row[f"g160_{k}_exact_db"] == pytest.approx(exact[f"g160_{k}_db"], abs=1e-9)
+    assert abs(est["g160_snri_db"] - exact["g160_snri_db"]) > 1e-3  # the two footings differ on this row
 
 
 def test_g160_without_pauses_is_a_metric_error():

@@ -47,6 +47,10 @@ def test_section_tables_and_figures(tmp_path):
     # G.160: TNLR -2 is outside "<= -5", SNRI 5 and DSN 3 inside their ranges
     assert "| 5.0 | -2.0 ✗ | 3.0 |" in text
     assert {p.name for p in paths} >= {"measures.csv", "octave_snr_i_babble.png"}
+    assert "SNRI exact" not in text  # no exact values in these rows: no empty columns
+    exact = [dict(r, g160_snri_exact_db=4.5, g160_tnlr_exact_db=-2.0, g160_dsn_exact_db=2.5) for r in _rows()]
+    text = "\n".join(measures_section(exact, tmp_path)[0])
+    assert "| SNRI exact | TNLR exact | DSN exact |" in text and "| 5.0 | -2.0 ✗ | 3.0 | 4.5 | -2.0 | 2.5 |" in text
 
 
 def test_hagerman_average_keeps_the_leaky_rows_and_counts_them():

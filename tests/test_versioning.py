@@ -103,3 +103,24 @@ def test_cli_refusal_is_one_line_with_exit_code_2(tmp_path, capsys):
     assert main(["bench", "run", str(sweep_file), "--out", str(out), "--workers", "1", "--no-report"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "duration_s 1.0 -> 1.5" in err[0] and "new --out" in err[0]
+
+
+def test_a_changed_column_definition_changes_every_version_and_the_report_says_so(tmp_path):
+    """A store whose rows were computed under G.160 definition 1 (its config has no
+    ``definitions``: written before issue 32) is refused by the same sweep now, naming the
+    definition; its report says which definition its rows follow."""
+    import json
+
+    _run(_sweep(), tmp_path)
+    write_store_report(tmp_path)
+    assert "g160 v2" in (tmp_path / "report" / "summary.md").read_text()
+    old = {k: v for k, v in sweep_config(_sweep()).items() if k != "definitions"}
+    with sqlite3.connect(tmp_path / "results.sqlite") as db:
+        db.execute("UPDATE meta SET value = ? WHERE key = 'sweep_config'", (json.dumps(old, sort_keys=True),))
+        db.execute("UPDATE meta SET value = ? WHERE key = 'sweep_version'", (config_version(old),))
+        db.execute("UPDATE results SET sweep_version = ?", (config_version(old),))
+    db.close()
+    write_store_report(tmp_path)
+    assert "g160 v1 (rows from before issue 32)" in (tmp_path / "report" / "summary.md").read_text()
+    with pytest.raises(SweepVersionError, match=r"definitions .* -> \{\"g160\": 2\}"):
+        _run(_sweep(), tmp_path)

@@ -525,11 +525,10 @@ def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -
     n0 = np.asarray(rendered.noise_image, dtype=np.float64)[0][:m]
     if result2 is not None and row["snr_method"] == "replay":
         row.update(_try(errors, "distortion", distortion_columns, result2, s, n, s_out, n_out, latency=latency, n_ref=_ref_row(rendered).size) or {})
-    if row["snr_method"] == "replay":
-        row.update(_try(errors, "g160", g160_columns, s0, fs, parts=(s0, n0, s_al, n_al)) or {})
-    else:
-        mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0][:m]
-        row.update(_try(errors, "g160", g160_columns, s0, fs, mixture=mix0, output=y_al) or {})
+    # one footing: the recommendation's estimate for every system, exact parts beside it where replayable
+    mix0 = np.asarray(rendered.mixture, dtype=np.float64)[0][:m]
+    exact = (s0, n0, s_al, n_al) if row["snr_method"] == "replay" else None
+    row.update(_try(errors, "g160", g160_columns, s0, fs, mixture=mix0, output=y_al, parts=exact) or {})
     self_noise = getattr(rendered, "self_noise_image", None)
     self0 = None if self_noise is None else np.asarray(self_noise, dtype=np.float64)[0][:m]
     row.update(_try(errors, "attribution", attribution_columns, s0, n0, s_al, n_al, fs, snr_i_db=row["snr_i_db"], self_noise=self0) or {})

@@ -16,17 +16,22 @@ frames of the clean speech ``s``, the noisy input ``d = s + n`` and the processe
   in pauses).
 
 Frames are ``FRAME_S`` (10 ms) long, non-overlapping.  Speech activity comes from the clean
-speech, as in the recommendation (its test signals are built from known clean speech):
-the active level is found by a P.56-style fixed point (the mean power of the frames within
-``ACTIVE_MARGIN_DB`` of it), a frame is *speech* when its clean power is within that margin,
-and *noise-only* when it is more than ``PAUSE_BELOW_ACTIVE_DB`` below the active level.
+speech, as in the recommendation (its test signals are built from known clean speech), by
+ITU-T P.56 method B (:func:`scenesim.scene.mixing.p56_activity`: the envelope against the
+threshold the active level was found at, with P.56's 0.2 s hangover): a frame is *speech* when
+at least half its samples are active and its clean speech is not exactly zero (the envelope
+decays for ~0.1 s after a word), *noise-only* when no sample within the hangover (0.2 s) of
+it, on either side, is active -- P.56's hangover after activity, and the same span before an
+onset, where the envelope's smoothers lag the speech (a departure from P.56, which has no
+look-ahead: without it the first frame of a word would count as noise).  Frames in the hangover are neither, so the decaying end of a word never
+counts as noise.
 
-Two modes, one formula:
-
-* :func:`g160_measures` (white boxes): the speech and noise parts of input and output are
-  known (``Result.replay``), so levels are measured on them directly -- no estimation.
-* :func:`g160_measures_blackbox` (black boxes): from the mixture and the output only, the
-  speech level estimated by noise-power subtraction as the recommendation does.
+One footing for every system (issue 32): the headline columns :data:`G160_COLUMNS` are the
+recommendation's own estimate, from the mixture and the output only
+(:func:`g160_measures_blackbox`: the speech level by noise-power subtraction), for white and
+black boxes alike.  Where the system is replayable the exact values from its known speech and
+noise parts (:func:`g160_measures`, no estimation) are extra columns,
+:data:`G160_EXACT_COLUMNS`; their difference is the estimate's error on that row.
 
 Target ranges (:data:`G160_TARGETS`) are the recommendation's guidelines, stated for its own
 test conditions (car and street noise at 6, 12 and 18 dB input SNR, averages over them).
@@ -49,11 +54,12 @@ from scenesim.errors import MetricError, ParameterError
 
 __all__ = [
     "G160Undefined",
-    "ACTIVE_MARGIN_DB",
     "FRAME_S",
     "G160_COLUMNS",
+    "G160_DEFINITION",
+    "G160_EXACT_COLUMNS",
     "G160_TARGETS",
-    "PAUSE_BELOW_ACTIVE_DB",
+    "SPEECH_SHARE",
     "frame_activity",
     "g160_measures",
     "g160_measures_blackbox",
@@ -61,10 +67,8 @@ __all__ = [
 
 #: Frame length in seconds (10 ms, non-overlapping).
 FRAME_S = 0.010
-#: A speech frame is within this many dB of the active speech level (the P.56 margin).
-ACTIVE_MARGIN_DB = 15.9
-#: A noise-only frame has clean speech more than this many dB below the active level.
-PAUSE_BELOW_ACTIVE_DB = 30.0
+#: A frame is a speech frame when at least this share of its samples is P.56-active.
+SPEECH_SHARE = 0.5
 #: Fewer speech or noise-only frames than this: the measures are undefined (G160Undefined).
 MIN_FRAMES = 10
 
@@ -74,6 +78,12 @@ class G160Undefined(MetricError):
     the measures are undefined, which is not an error of the system under test."""
 #: Columns :func:`g160_measures` fills (fixed names, issue 16).
 G160_COLUMNS = ("g160_snri_db", "g160_tnlr_db", "g160_dsn_db")
+#: Version of the definition of :data:`G160_COLUMNS` (part of every sweep's version,
+#: :mod:`benchmarks.run.versioning`): 1 exact parts for white boxes and a level-gated activity;
+#: 2 the recommendation's estimate for every system with P.56 activity (issue 32).
+G160_DEFINITION = 2
+#: The exact white-box values of the same three measures (replayable systems only).
+G160_EXACT_COLUMNS = ("g160_snri_exact_db", "g160_tnlr_exact_db", "g160_dsn_exact_db")
 #: The recommendation's target ranges (lo, hi) in dB, None for an open end (see module text).
 G160_TARGETS = {"g160_snri_db": (4.0, None), "g160_tnlr_db": (None, -5.0), "g160_dsn_db": (-4.0, 3.0)}
 
@@ -91,25 +101,37 @@ def _frames(x, fs: int) -> np.ndarray:
 
 
 def frame_activity(clean, fs: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(speech, pause)`` boolean masks over the ``FRAME_S`` frames of the clean speech ``clean``.
+    """``(speech, pause)`` boolean masks over the ``FRAME_S`` frames of the clean speech ``clean``
+    (P.56 method B activity with its hangover, see the module docstring).
 
     >>> fs = 8000
-    >>> burst = np.sin(2 * np.pi * 500 * np.arange(800) / fs)  # 100 ms tone
-    >>> speech, pause = frame_activity(np.concatenate([burst, np.zeros(800)]), fs)
+    >>> tone = np.sin(2 * np.pi * 500 * np.arange(fs) / fs)  # 1 s tone, then 1 s of silence
+    >>> speech, pause = frame_activity(np.concatenate([tone, np.zeros(fs)]), fs)
     >>> int(speech.sum()), int(pause.sum())
-    (10, 10)
+    (98, 70)
+
+    Speech: frames 2 to 99 (the envelope's two 30 ms smoothers cross the threshold ~18 ms
+    after the onset; the decay after 1 s has no clean speech).  Noise-only: 1.30 s to 2 s (the
+    envelope decays below the threshold at ~1.08 s, then the 0.2 s hangover); the two frames
+    before the envelope's crossing are within 0.2 s of it, so not noise-only.
     """
-    p = _frames(clean, fs)
-    if not np.any(p > 0):
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    from scenesim.scene.mixing import P56_HANGOVER_S, p56_activity
+
+    clean = np.asarray(clean, dtype=np.float64)
+    if clean.ndim != 1:
+        raise ParameterError("clean", clean, "a 1-D signal")
+    if not np.any(clean != 0.0):
         raise MetricError("G.160: the clean speech is silent")
-    margin = 10.0 ** (-ACTIVE_MARGIN_DB / 10.0)
-    level = float(np.mean(p))
-    for _ in range(50):  # fixed point: the mean power of the frames within the margin of it
-        new = float(np.mean(p[p >= level * margin]))
-        if abs(new - level) <= 1e-9 * new:
-            break
-        level = new
-    return p >= level * margin, p < level * 10.0 ** (-PAUSE_BELOW_ACTIVE_DB / 10.0)
+    active, held = p56_activity(clean, fs)
+    n = max(1, int(round(FRAME_S * fs)))
+    k = clean.size // n
+    share = active[: k * n].reshape(k, n).mean(axis=1)
+    h = int(round(P56_HANGOVER_S / FRAME_S))
+    touched = np.concatenate([held[: k * n].reshape(k, n).any(axis=1), np.zeros(h, dtype=bool)])
+    near = sliding_window_view(touched, h + 1).any(axis=1)  # held now or within h frames ahead
+    return (share >= SPEECH_SHARE) & (_frames(clean, fs) > 0.0), ~near
 
 
 def _log_mean(p: np.ndarray) -> float:

@@ -8,8 +8,8 @@ Three groups, each computed by one function so a failure in one leaves the other
   of ``s - n`` (the Hagerman run); each is replayed on the speech and on the noise (``+n``).
   Replayable systems only; no extra enhancer run.
 * :func:`g160_columns` -- ``g160_snri_db``, ``g160_tnlr_db``, ``g160_dsn_db``
-  (:mod:`benchmarks.metrics.g160`): from the replayed parts for white boxes, from mixture and output
-  for black boxes.
+  (:mod:`benchmarks.metrics.g160`): the recommendation's estimate from mixture and output for every
+  system, with P.56 activity; ``g160_*_exact_db`` from the replayed parts where replayable.
 * :func:`attribution_columns` -- ``snr_i_spectral_db``, ``snr_i_spatial_db`` and the per-octave
   SNR-I as JSON in ``snr_i_octave_json`` (:mod:`benchmarks.metrics.attribution`).
 
@@ -28,6 +28,7 @@ from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
 from benchmarks.metrics.distortion import hagerman_leak_db, speech_jitter_db
 from benchmarks.metrics.g160 import (
     G160_COLUMNS,
+    G160_EXACT_COLUMNS,
     G160Undefined,
     g160_measures,
     g160_measures_blackbox,
@@ -42,6 +43,9 @@ MEASURE_COLUMNS: dict[str, str] = {
     "g160_snri_db": "REAL",
     "g160_tnlr_db": "REAL",
     "g160_dsn_db": "REAL",
+    "g160_snri_exact_db": "REAL",
+    "g160_tnlr_exact_db": "REAL",
+    "g160_dsn_exact_db": "REAL",
     "snr_i_spectral_db": "REAL",
     "snr_i_spatial_db": "REAL",
     "snr_i_octave_json": "TEXT",
@@ -64,18 +68,26 @@ def distortion_columns(result2, s, n, s_out1, n_out1, *, latency: int, n_ref: in
     return {"speech_jitter_db": speech_jitter_db(w1s, w2s), "hagerman_leak_db": hagerman_leak_db(w1s, w2s, w1n, w2n)}
 
 
-def g160_columns(clean, fs: int, *, parts=None, mixture=None, output=None) -> dict[str, float | None]:
-    """G.160 measures: ``parts = (s_in, n_in, s_out, n_out)`` (white box) or ``mixture, output``.
+def g160_columns(clean, fs: int, *, mixture, output, parts=None) -> dict[str, float | None]:
+    """G.160 measures on one footing: :data:`G160_COLUMNS` the recommendation's estimate from
+    ``mixture`` and ``output`` for every system; with ``parts = (s_in, n_in, s_out, n_out)``
+    (a replayable system) also the exact values, :data:`G160_EXACT_COLUMNS` (else None).
 
     Empty (None) where the recommendation's measures are undefined for the signal (too few
     speech or noise-only frames, e.g. speech without pauses): not an error of the row.
     """
+    out: dict[str, float | None] = dict.fromkeys((*G160_COLUMNS, *G160_EXACT_COLUMNS))
     try:
-        if parts is not None:
-            return g160_measures(clean, *parts, fs)
-        return g160_measures_blackbox(clean, mixture, output, fs)
+        out.update(g160_measures_blackbox(clean, mixture, output, fs))
     except G160Undefined:
-        return dict.fromkeys(G160_COLUMNS)
+        pass
+    if parts is not None:
+        try:
+            exact = g160_measures(clean, *parts, fs)
+        except G160Undefined:
+            return out
+        out.update({e: exact[k] for k, e in zip(G160_COLUMNS, G160_EXACT_COLUMNS)})
+    return out
 
 
 def attribution_columns(s_in, n_in, s_out, n_out, fs: int, *, snr_i_db, self_noise=None) -> dict[str, Any]:

@@ -31,6 +31,7 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None,
         rows = store.rows()
         runs = store.runs()
         version = store.get_meta("sweep_version")
+        config = store.get_meta("sweep_config")
     finally:
         if own:
             store.close()
@@ -43,10 +44,31 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None,
         meta["sweep version"] = version + (f" ({other} rows of other versions not shown)" if other else "")
         if other:
             banner.append(f"{other} rows of other sweep versions are in the store and not shown.")
+    meta["column definitions"] = definitions_text(config)
     sweep = last_sweep(runs)
     banner += coverage_banner(rows, runs, sweep)
     ranking = sweep.ranking if sweep is not None else ()
     return list(write_report(rows, Path(out_dir), meta=meta, listen=listen, ranking=ranking, banner=banner))
+
+
+def definitions_text(config_json: str | None) -> str:
+    """The definitions of changed fixed columns the rows were computed with, in words.
+
+    >>> definitions_text('{"definitions": {"g160": 2}}').startswith("g160 v2")
+    True
+    >>> definitions_text(None).startswith("g160 v1")
+    True
+    """
+    try:
+        defs = json.loads(config_json or "{}").get("definitions") or {}
+    except (ValueError, AttributeError):
+        defs = {}
+    if defs.get("g160", 1) >= 2:
+        return ("g160 v2: the G.160 columns are the recommendation's estimate (mixture and output) for every "
+                "system with P.56 activity; g160_*_exact_db the exact replayed values")
+    return ("g160 v1 (rows from before issue 32): G.160 from the exact parts for white boxes and the estimate "
+            "for black boxes, level-gated activity -- not comparable with v2 rows; run with --new-version to "
+            "recompute")
 
 
 def last_sweep(runs: Sequence[Mapping[str, Any]]):

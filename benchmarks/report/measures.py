@@ -28,7 +28,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
 from benchmarks.metrics.attribution import SELF_NOISE_ARRAY_GAIN_DB  # noqa: E402
-from benchmarks.metrics.g160 import G160_COLUMNS, G160_TARGETS  # noqa: E402
+from benchmarks.metrics.g160 import G160_COLUMNS, G160_EXACT_COLUMNS, G160_TARGETS  # noqa: E402
 from benchmarks.report.figures import new_figure, save_figure  # noqa: E402
 from benchmarks.report.tables import aggregate, fmt, markdown_table, num, write_csv  # noqa: E402
 from benchmarks.thesis import reference as T  # noqa: E402
@@ -42,7 +42,7 @@ FIELD_BOUND_DB = {"diffuse": DIFFUSE_BOUND_DB, "wind": INCOHERENT_BOUND_DB, "inc
 #: Jitter rows at or above this input SNR are held to the issue's -30 dB target.
 JITTER_SNR_FROM_DB = 15.0
 
-_FIELDS = ("snr_i_db", "snr_i_spectral_db", "snr_i_spatial_db", *G160_COLUMNS)
+_FIELDS = ("snr_i_db", "snr_i_spectral_db", "snr_i_spatial_db", *G160_COLUMNS, *G160_EXACT_COLUMNS)
 
 
 def leaky_count(rows: Sequence[dict]) -> int:
@@ -127,19 +127,25 @@ def _in_target(key: str, value) -> str:
 
 
 def g160_lines(agg: Sequence[dict]) -> list[str]:
-    """Table of the G.160 measures (mean over the cell's rows) beside the target ranges."""
+    """Table of the G.160 measures (mean over the cell's rows) beside the target ranges, with the
+    exact replayed values beside them where the system is replayable."""
+    exact = any(r.get(k) is not None for r in agg for k in G160_EXACT_COLUMNS)
     body = [[f"`{r['enhancer']}`", str(r["noise"]), *(fmt(r.get(k), 1) + _in_target(k, r.get(k)) for k in G160_COLUMNS),
-             str(r["n"])] for r in agg if any(r.get(k) is not None for k in G160_COLUMNS)]  # fmt: skip
+             *((fmt(r.get(k), 1) for k in G160_EXACT_COLUMNS) if exact else ()), str(r["n"])]
+            for r in agg if any(r.get(k) is not None for k in G160_COLUMNS)]  # fmt: skip
     if not body:
         return []
-    head = ["system", "noise", *(f"{k.removeprefix('g160_').removesuffix('_db').upper()} (dB; target {_target_text(k)})"
-                                 for k in G160_COLUMNS), "rows"]  # fmt: skip
+    short = [k.removeprefix("g160_").removesuffix("_db").upper() for k in G160_COLUMNS]
+    head = ["system", "noise", *(f"{s} (dB; target {_target_text(k)})" for s, k in zip(short, G160_COLUMNS)),
+            *((f"{s} exact" for s in short) if exact else ()), "rows"]  # fmt: skip
     return [
         "### ITU-T G.160 Appendix II measures",
         "",
-        "SNRI, TNLR and DSN (`benchmarks.metrics.g160`: 10 ms frames, speech activity from the clean speech, "
-        "levels as means of dB over speech / noise-only frames): from the replayed speech and noise "
-        "parts for white boxes, from mixture and output (noise-power subtraction) for black boxes. "
+        "SNRI, TNLR and DSN (`benchmarks.metrics.g160`, definition v2: 10 ms frames, speech activity from "
+        "the clean speech by ITU-T P.56 method B with its 0.2 s hangover, levels as means of dB over speech "
+        "/ noise-only frames) on **one footing for every system**: the recommendation's own estimate from "
+        "mixture and output (noise-power subtraction). *exact*: the same measures from the replayed speech "
+        "and noise parts, where the system is replayable -- their difference is the estimate's error. "
         "Means over every input SNR of the cell; ✗ marks a mean outside the recommendation's target "
         "range. The targets are stated for the recommendation's own conditions (car and street noise at "
         "6–18 dB), so they are guidelines here, not a pass mark; the module's docstring lists what of "

@@ -1,7 +1,9 @@
 """Sweep versions: a store never mixes rows of two versions of a sweep silently (issue 8, section 4).
 
 A sweep's *version* is a hash of everything that decides its numbers: every axis and fixed
-value (durations, geometry, sensors, ...), the enhancers and their parameters, the rooms.
+value (durations, geometry, sensors, ...), the enhancers and their parameters, the rooms, and
+the definitions of fixed result columns that changed meaning (:data:`DEFINITIONS`: when one
+changes, every sweep's version changes, so old rows are never averaged with new ones).
 Not part of it: the sweep's name and description, ``--limit`` (running a prefix is how a
 sweep resumes) and ``--seed`` (more seeds of the same sweep are more samples of it).
 
@@ -27,8 +29,13 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
+from benchmarks.metrics.g160 import G160_DEFINITION
 from benchmarks.run.sweep import Sweep, parse_sweep
 from scenesim.errors import ConfigError
+
+#: Definitions of fixed columns that changed meaning since the first release, by their version
+#: (``g160``: :data:`benchmarks.metrics.g160.G160_DEFINITION`).
+DEFINITIONS = {"g160": G160_DEFINITION}
 
 #: ``meta`` keys of the store.
 META_VERSION = "sweep_version"
@@ -62,6 +69,7 @@ def sweep_config(sweep: Sweep) -> dict[str, Any]:
                    "axis_azimuth_deg": float(r.axis_azimuth_deg)}
             for name, r in sorted(sweep.rooms.items())
         },  # fmt: skip
+        "definitions": dict(DEFINITIONS),
     }
 
 
@@ -93,7 +101,7 @@ def describe_changes(old: Mapping[str, Any], new: Mapping[str, Any], *, limit: i
         a, b = old.get("axes", {}).get(key), new.get("axes", {}).get(key)
         if a != b:
             parts.append(f"{key} {_show(a)} -> {_show(b)}")
-    for key in ("seeds", "enhancers", "rooms"):
+    for key in ("seeds", "enhancers", "rooms", "definitions"):
         if old.get(key) != new.get(key):
             parts.append(f"{key} {_show(old.get(key))} -> {_show(new.get(key))}")
     po, pn = old.get("enhancer_params", {}), new.get("enhancer_params", {})

@@ -73,11 +73,7 @@ def active_speech_power(x, fs: int) -> float:
     energy = float(np.sum(x1 * x1))
     if energy == 0.0:
         return 0.0
-    g = np.exp(-1.0 / (fs * P56_TIME_CONSTANT_S))
-    # Two cascaded one-pole smoothers: p = g p + (1-g)|x|, q = g q + (1-g) p.
-    q = sps.lfilter([(1.0 - g) ** 2], [1.0, -2.0 * g, g * g], np.abs(x1))
-    width = int(round(P56_HANGOVER_S * fs)) + 1
-    q_hold = maximum_filter1d(q, size=width, origin=(width - 1) // 2, mode="constant", cval=0.0)
+    _, q_hold = _p56_envelope(x1, fs)
     peak = float(q_hold.max())
     if peak <= 0.0:
         return energy / x1.size
@@ -96,6 +92,45 @@ def active_speech_power(x, fs: int) -> float:
     w = (delta[j - 1] - P56_MARGIN_DB) / (delta[j - 1] - delta[j])
     level_db = a_db[j - 1] + w * (a_db[j] - a_db[j - 1])
     return float(10.0 ** (level_db / 10.0))
+
+
+def _p56_envelope(x1: np.ndarray, fs: int) -> tuple[np.ndarray, np.ndarray]:
+    """P.56's envelope ``q`` of a 1-D signal and ``q`` held over the hangover (running maximum)."""
+    g = np.exp(-1.0 / (fs * P56_TIME_CONSTANT_S))
+    # Two cascaded one-pole smoothers: p = g p + (1-g)|x|, q = g q + (1-g) p.
+    q = sps.lfilter([(1.0 - g) ** 2], [1.0, -2.0 * g, g * g], np.abs(x1))
+    width = int(round(P56_HANGOVER_S * fs)) + 1
+    return q, maximum_filter1d(q, size=width, origin=(width - 1) // 2, mode="constant", cval=0.0)
+
+
+def p56_activity(x, fs: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample speech activity of a mono signal by P.56 method B (see the module docstring).
+
+    The threshold is the one the active level was found at, ``C = A - M`` (dB, amplitude
+    ``10^(C/20)``).  Returns ``(active, held)``, boolean arrays of shape ``(n,)``: ``active``
+    where the envelope is at or above it, ``held`` where it was so within the last
+    :data:`P56_HANGOVER_S` s (P.56's activity, hangover included).  Silence: nothing active.
+
+    >>> fs = 8000
+    >>> x = np.concatenate([np.sin(2 * np.pi * 500 * np.arange(fs) / fs), np.zeros(fs)])
+    >>> active, held = p56_activity(x, fs)
+    >>> round(float(active.sum()) / fs, 2), round(float(held.sum() - active.sum()) / fs, 2)
+    (1.08, 0.2)
+
+    The 1 s tone is active 1.08 s: its envelope (two 30 ms smoothers, step response
+    ``1 - (1 + t/τ) e^(-t/τ)``) crosses the threshold, 0.178 of its final value (−15.9 dB
+    re the tone's active level), 18 ms after the onset and decays below it 95 ms after the
+    end; the hangover adds 0.2 s.
+    """
+    arr = _as_2d(x, "x")
+    if arr.shape[0] != 1:
+        raise ParameterError("x", arr, "a mono signal")
+    level = active_speech_power(arr, fs)
+    q, q_hold = _p56_envelope(arr[0], check_fs(fs))
+    if level <= 0.0:
+        return np.zeros(q.size, dtype=bool), np.zeros(q.size, dtype=bool)
+    c = 10.0 ** ((10.0 * np.log10(level) - P56_MARGIN_DB) / 20.0)
+    return q >= c, q_hold >= c
 
 
 def noise_gain_for_snr(
