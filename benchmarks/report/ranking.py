@@ -209,9 +209,10 @@ def ranking_section(
     for label, rows in strata(ok):
         recs = rank_groups(rows, active, flagged=flagged)
         lines += headline_lines(label, recs, active)
-        records += [{**r, "stratum": label} for r in recs]
+        where = {"noise": rows[0].get("noise"), "rt60_s": rows[0].get("rt60_s") if "RT60" in label else None}
+        records += [{**r, **where, "stratum": label} for r in recs]
         pairs += [{**t, "stratum": label} for t in (recs[0]["tests"] if recs else [])]
-    cols = ["stratum", "tier", "enhancer", "n", "black_box", "flagged",
+    cols = ["noise", "rt60_s", "stratum", "tier", "enhancer", "n", "black_box", "flagged",
             *(x for f in active for x in (f, f + "_lo", f + "_hi", "letters_" + f))]  # fmt: skip
     paths = [write_csv(report_dir / "ranking.csv", records, cols),
              write_csv(report_dir / "pairwise.csv", pairs, ["stratum", "metric", "system_a", "system_b", "n",
