@@ -63,10 +63,10 @@ function complete(t) {
   const g = given(t.index);
   return t.stimuli.every((s) => plan.scales.every((sc) => g[s] && g[s][sc] !== undefined));
 }
-async function rate(t, stimulus, scale, value) {
-  const g = given(t.index);
-  (g[stimulus] || (g[stimulus] = {}))[scale] = value;
-  window.pendingPosts++;
+// One chain of requests: the threaded server could store two quick changes of one rating in either
+// order (a slider clicked, then moved), so each request waits for the one before it.
+let posting = Promise.resolve();
+async function send(t, stimulus, scale, value) {
   try {
     const r = await fetch('/api/rating', {method: 'POST', headers: {'Content-Type': 'application/json'},
       body: JSON.stringify({listener: plan.listener, trial: t.index, stimulus, scale, value})});
@@ -75,6 +75,13 @@ async function rate(t, stimulus, scale, value) {
   } catch (err) {
     $('#status').textContent = 'not saved (server gone?): ' + err;
   } finally { window.pendingPosts--; }
+}
+async function rate(t, stimulus, scale, value) {
+  const g = given(t.index);
+  (g[stimulus] || (g[stimulus] = {}))[scale] = value;
+  window.pendingPosts++;
+  posting = posting.then(() => send(t, stimulus, scale, value));
+  await posting;
   $('#next').disabled = !complete(t);
 }
 function askName() {
