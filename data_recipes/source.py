@@ -137,8 +137,9 @@ class DataSource:
                     stacklevel=3,
                 )
             if not scan.speech and not scan.noise:
+                first = f" ({scan.bad[0].path.name}: {scan.bad[0].reason})" if scan.bad else ""
                 raise DataError(
-                    f"no usable audio in {self.root}: expected speech/*.wav|flac and "
+                    f"no usable audio in {self.root}{first}: expected speech/*.wav|flac and "
                     "noise/<type>[_<anything>].wav|flac"
                 )
             if not scan.speech and require_speech:

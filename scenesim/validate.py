@@ -73,6 +73,24 @@ def check_fs(fs, *, supported: Sequence[int] | None = None) -> int:
     return fs
 
 
+def check_audio_fs(fs, *, supported: Sequence[int] | None = None, name: str = "fs") -> int:
+    """:func:`check_fs` held to the physical range of ``--fs`` as well (8000-192000 Hz): the rate
+    of a signal an enhancer or a metric is given, where 1 Hz or 100 MHz is a mistake, not audio.
+
+    >>> check_audio_fs(16000)
+    16000
+    >>> check_audio_fs(100_000_000)
+    Traceback (most recent call last):
+    ...
+    scenesim.errors.ParameterError: Parameter fs=100000000 is invalid: expected a sampling rate in [8000, 192000] Hz.
+    """
+    fs = check_fs(fs, supported=supported)
+    lo, hi, _, what = PHYSICAL_RANGES["fs"]
+    if not lo <= fs <= hi:
+        raise ParameterError(name, fs, f"{what} in {physical_range_text('fs')}")
+    return fs
+
+
 def check_signal(
     x, *, name: str = "x", n_channels: int | None = None, min_samples: int = 1
 ) -> np.ndarray:

@@ -14,6 +14,7 @@ from benchmarks.cli.checks import (
     options_named,
     prepare_out_dir,
 )
+from benchmarks.run.executors import check_workers
 from benchmarks.run.lock import run_lock
 from benchmarks.run.progress import slow_rir_warning
 from benchmarks.run.signals import sigterm_as_interrupt
@@ -109,7 +110,8 @@ def _run(args) -> int:
     if args.scheduler and args.executor != "dask":
         raise ParameterError("--scheduler", args.scheduler, "to be used with --executor dask")
     # offset seeds must stay SQLite integers: refused before any work, naming the option typed
-    with options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit"}):
+    with options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit", "workers": "--workers"}):
+        check_workers(args.workers)
         sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds,
                                                split=args.split)
     missing = sweep.missing_extras()

@@ -13,6 +13,7 @@ import sqlite3
 import tempfile
 from pathlib import Path
 
+from benchmarks.run.lock import LOCK_NAME
 from benchmarks.store.errors import corrupt_store_error, is_corruption  # noqa: F401  (re-exported)
 from scenesim.errors import DataError, ParameterError
 from scenesim.validate import PHYSICAL_RANGES, check_physical
@@ -104,6 +105,9 @@ def remove_created_dirs() -> None:
     while CREATED:
         p = CREATED.pop(0)
         try:
+            lock = p / LOCK_NAME  # a released run lock is no output: the folder counts as empty
+            if lock.is_file() and [q.name for q in p.iterdir()] == [LOCK_NAME]:
+                lock.unlink()
             p.rmdir()  # only an empty directory: anything written is kept
         except OSError:
             pass

@@ -123,7 +123,10 @@ def _check_options(args) -> str:
         raise ParameterError("OUT", str(args.output), "a file other than IN (it would overwrite the recording)")
     subtype = _output_subtype(args.output)
     if args.trace is not None:
-        check_out_file("--trace", args.trace)
+        args.trace = check_out_file("--trace", args.trace)
+        for role, path in (("IN", args.input), ("OUT", args.output)):
+            if args.trace.resolve() == Path(path).resolve():
+                raise ParameterError("--trace", str(args.trace), f"a file other than {role} (it would be overwritten)")
     check_cli_fs("--fs", args.fs)
     if args.c_mps is not None:
         check_physical("--c-mps", args.c_mps, "c_mps")

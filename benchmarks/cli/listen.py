@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from benchmarks.cli.bench import _nonneg_int
+from benchmarks.cli.bench import _nonneg_int, _positive_int
 
 _EPILOG = """\
 examples:
@@ -40,7 +40,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("dir", type=Path, metavar="DIR", help="the sweep's output folder (results.sqlite)")
     p.add_argument("--method", choices=("p835", "mushra"), default="p835", help="default: p835")
     p.add_argument("--conditions", nargs="+", default=(), metavar="ID", help="condition ids (default: the report's picker)")
-    p.add_argument("--count", type=_nonneg_int, default=None, metavar="N", help="conditions the picker chooses (default 6)")
+    p.add_argument("--count", type=_positive_int, default=None, metavar="N", help="conditions the picker chooses (default 6)")
     p.add_argument("--systems", nargs="+", default=(), metavar="NAME", help="enhancers to rate (default: all of the sweep's)")
     p.add_argument("--listener", default=None, metavar="NAME", help="the only listener (default: the page asks for a name)")
     p.add_argument("--seed", type=_nonneg_int, default=0, metavar="S", help="mixed with each name into its order (default 0)")

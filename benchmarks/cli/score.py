@@ -115,6 +115,20 @@ def _dnsmos(args) -> bool:
     return dnsmos_installed()
 
 
+#: At most this many failed files are named on stderr (all of them are in the rows).
+MAX_FAILURES_SHOWN = 10
+
+
+def _print_failures(rows) -> None:
+    """One stderr line per failed file (its path and reason), so a failure is seen without the CSV."""
+    bad = [r for r in rows if r["status"] != "ok"]
+    for r in bad[:MAX_FAILURES_SHOWN]:
+        print(f"scenesim score: failed: {r['file']}: {r['error']}", file=sys.stderr)
+    if len(bad) > MAX_FAILURES_SHOWN:
+        print(f"scenesim score: ... and {len(bad) - MAX_FAILURES_SHOWN} more failed file(s) (error column)",
+              file=sys.stderr)
+
+
 def run(args) -> int:
     _check_values(args)
     pairs = read_pair_list(args.pairs) if args.pairs is not None else pair_files(args.degraded, args.ref)
@@ -125,6 +139,7 @@ def run(args) -> int:
                            max_lag_s=args.max_lag_ms / 1000.0)
     rows = score_pairs(pairs, options, workers=args.workers)
     failed = sum(r["status"] != "ok" for r in rows)
+    _print_failures(rows)
     counts = f"{len(rows)} file(s): {len(rows) - failed} scored, {failed} failed"
     counts += " (see their error column)" if failed else ""
     if out is None:

@@ -264,6 +264,18 @@ def check_physical_options(args) -> None:
         check_snr_band("--snr-band-hz", tuple(args.snr_band_hz), args.fs)
 
 
+#: Files simulate writes into --out (self_noise.wav only with --self-noise-dba).
+OUTPUT_NAMES = ("mixture.wav", "speech_image.wav", "noise_image.wav", "reference.wav", "self_noise.wav",
+                "scene.json")
+
+
+def _check_not_overwritten(option: str, path, out) -> None:
+    """An input inside --out under a name simulate writes would be overwritten mid-run: refuse it."""
+    if Path(path).resolve() in {(Path(out) / name).resolve() for name in OUTPUT_NAMES}:
+        raise ParameterError(option, str(path), f"a file that --out {out} does not overwrite "
+                             f"(simulate writes {', '.join(OUTPUT_NAMES)} there): choose another --out")
+
+
 def run(args) -> int:
     check_physical_options(args)
     scene = build_scene(args)
@@ -271,6 +283,7 @@ def run(args) -> int:
     for option, path in (("--speech", args.speech), ("--noise", args.noise)):
         if path is not None:
             check_input_file(option, path)
+            _check_not_overwritten(option, path, args.out)
     out: Path = prepare_out_dir("--out", args.out)
     rng = np.random.default_rng([scene.seed, 1000])  # streams apart from the scene's own
     if args.speech is not None:

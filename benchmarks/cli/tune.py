@@ -81,7 +81,9 @@ def _tune(args) -> int:
         seeds=args.seeds, seed=args.seed, test_seeds=args.test_seeds, sampler_seed=args.sampler_seed,
         data_dir=args.data_dir, limit=args.limit, workers=args.workers, run_test=not args.no_test,
     )
-    with run_lock(out), sigterm_as_interrupt(), options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit"}):
+    with run_lock(out), sigterm_as_interrupt(), options_named({"seed": "--seed", "seeds": "--seeds", "limit": "--limit",
+                                                                     "trials": "--trials", "test_seeds": "--test-seeds",
+                                                                     "workers": "--workers"}):
         outcome = tune(settings)
     print(f"params: {outcome.params_file}")
     for f in outcome.report_files:

@@ -69,7 +69,7 @@ from benchmarks.metrics.speech import (
 from benchmarks.metrics.srmr import srmr
 from scenesim.audio import audio_rate, check_rate, read_audio, resample
 from scenesim.errors import DataError, MetricError, ParameterError
-from scenesim.validate import check_int
+from scenesim.validate import check_audio_fs, check_int
 
 __all__ = [
     "AUDIO_SUFFIXES", "FILE_COLUMNS", "INTRUSIVE", "NON_INTRUSIVE", "Pair", "ScoreOptions", "pair_files",
@@ -193,7 +193,7 @@ def score(degraded, fs: int, reference=None, *, dnsmos: bool | None = None) -> d
         columns (floats, or None where undefined) and ``"error"`` ('' or the reasons).
     """
     deg = _mono(degraded, "degraded")
-    fs = int(fs)
+    fs = check_audio_fs(fs)
     dnsmos = _want_dnsmos(dnsmos)
     errors: list[str] = []
     row: dict = dict.fromkeys(INTRUSIVE)

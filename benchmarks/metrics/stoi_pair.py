@@ -102,6 +102,8 @@ def stoi_estoi(x, y, fs: int) -> tuple[float, float] | None:
     if fs != S.FS:
         x = utils.resample_oct(x, S.FS, fs)
         y = utils.resample_oct(y, S.FS, fs)
+    if x.size < S.N_FRAME:  # not one frame: nothing to compare (pystoi fails on the empty max)
+        return None
     x, y = _remove_silent_frames(x, y, S.DYN_RANGE, S.N_FRAME, S.N_FRAME // 2)
     x_tob, y_tob = _band_envelopes(x), _band_envelopes(y)
     if x_tob.shape[-1] < MIN_FRAMES:

@@ -29,6 +29,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
+from benchmarks.metrics.scoring import MAX_WORKERS
 from benchmarks.run.watchdog import exit_when_orphaned
 from scenesim.errors import ParameterError, ScenesimError
 
@@ -69,7 +70,7 @@ class LocalExecutor:
     name = "local"
 
     def __init__(self, workers: int | None = None, *, preload: Sequence[str] = ()):
-        self.workers = _check_workers(workers)
+        self.workers = check_workers(workers)
         self.preload = tuple(preload)
         ctx = multiprocessing.get_context("forkserver")
         if self.preload:
@@ -189,7 +190,7 @@ class DaskExecutor:
                 self._client = Client(scheduler, timeout="30s")
                 self.workers = len(self._client.scheduler_info().get("workers", {})) or None
             else:
-                self.workers = _check_workers(workers)
+                self.workers = check_workers(workers)
                 with dask.config.set(LOCAL_CLUSTER_CONFIG), _environ(SINGLE_THREAD_ENV):
                     _forkserver_preload(preload)
                     self._cluster = LocalCluster(
@@ -242,11 +243,12 @@ def _forkserver_preload(modules: Sequence[str]) -> None:
     get_mp_context().set_forkserver_preload(["distributed", "benchmarks.run.executors", *modules])
 
 
-def _check_workers(workers: int | None) -> int:
+def check_workers(workers: int | None) -> int:
+    """``workers`` if it is a process count in [1, MAX_WORKERS]; None gives the CPU count."""
     if workers is None:
         return os.cpu_count() or 1
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ParameterError("workers", workers, "an integer >= 1")
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
+        raise ParameterError("workers", workers, f"a number of processes in [1, {MAX_WORKERS}]")
     return workers
 
 
@@ -267,6 +269,6 @@ def make_executor(
     if executor == "local":
         if scheduler:
             raise ParameterError("scheduler", scheduler, "no scheduler with the local executor (use --executor dask)")
-        n = _check_workers(workers)
+        n = check_workers(workers)
         return SerialExecutor() if n == 1 else LocalExecutor(n, preload=preload)
     return DaskExecutor(workers, scheduler, preload=preload)

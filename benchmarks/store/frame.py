@@ -36,6 +36,15 @@ def _pandas():
     return pandas
 
 
+def _check_values_present(key: str, wanted: set, present: set, out_dir) -> None:
+    """A filter value no stored row holds is a typo (``enhancers="eb-sss"``, ``snr_db="0"``), not an empty
+    selection: say which values the column has."""
+    missing = [w for w in wanted if w not in present]
+    if present and missing:
+        have = ", ".join(sorted(repr(v) for v in present if v is not None)[:12])
+        raise ScenesimError(f"load_results: {key}={missing[0]!r} matches no row in {out_dir} (values: {have})")
+
+
 def load_results(out_dir: str | Path, *, ok_only: bool = False, **where):
     """Every row of ``out_dir/results.sqlite`` as a :class:`pandas.DataFrame`.
 
@@ -65,11 +74,13 @@ def load_results(out_dir: str | Path, *, ok_only: bool = False, **where):
     pd = _pandas()
     with ResultStore.open(out_dir, readonly=True) as store:
         rows = store.rows("status = 'ok'") if ok_only else store.rows()
+    stored = rows  # a value is checked against the whole store, not what earlier filters left
     for key, want in where.items():
         col = column_name(key)
         if rows and col not in rows[0]:
             raise ScenesimError(f"load_results: no column {key!r} in {out_dir} (axis names accepted: {', '.join(COLUMN_ALIASES)})")
         wanted = set(want) if isinstance(want, (list, tuple, set)) else {want}
+        _check_values_present(key, wanted, {r.get(col) for r in stored}, out_dir)
         rows = [r for r in rows if r.get(col) in wanted]
     columns = [c for c in COLUMNS if not rows or c in rows[0]]
     columns += [c for c in (rows[0] if rows else ()) if c not in columns]

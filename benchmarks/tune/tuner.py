@@ -18,6 +18,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from benchmarks.run.executors import check_workers
 from benchmarks.tune.holdout import REPORT_METRICS, dev_test_table, write_report
 from benchmarks.tune.objective import Constraint, Objective
 from benchmarks.tune.paramset import (
@@ -45,8 +46,11 @@ from benchmarks.tune.trials import (
     splits_supported,
     test_sweep,
 )
-from scenesim.errors import DataError
-from scenesim.validate import check_choice
+from scenesim.errors import DataError, ParameterError
+from scenesim.validate import check_choice, check_int
+
+#: Trials of one study: TPE's cost grows with the history, and each trial runs a sweep.
+MAX_TRIALS = 10_000
 
 DIRECTIONS = ("maximize", "minimize")
 
@@ -104,9 +108,16 @@ def _plan(s: TuneSettings) -> _Plan:
     dims = parse_space(s.params, get(s.enhancer).Params, enhancer=s.enhancer)
     objective = Objective.parse(s.objective)
     constraints = tuple(Constraint.parse(c) for c in s.constraints)
+    check_int("trials", s.trials, minimum=1, maximum=MAX_TRIALS)
+    check_workers(s.workers)
     sweep, _ = _select_conditions(s.sweep, seed=s.seed, limit=s.limit, seeds=s.seeds)
     dev = dev_sweep(sweep)
     conditions = _select_conditions(dev, seed=None, limit=s.limit)[1]
+    if s.run_test and s.test_seeds is not None:  # the test run's size, before any trial runs
+        try:
+            test_sweep(dev, seeds_of(conditions), s.test_seeds)
+        except ParameterError as exc:
+            raise ParameterError("test_seeds", s.test_seeds, exc.allowed) from None
     data_dir = str(s.data_dir) if s.data_dir else (os.environ.get("SCENESIM_DATA") or None)
     return _Plan(dims, objective, constraints, dev, seeds_of(conditions), len(conditions),
                  data_fingerprint(data_dir), data_dir)

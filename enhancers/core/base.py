@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from scenesim.errors import ParameterError
-from scenesim.validate import check_fs, check_signal
+from scenesim.validate import check_audio_fs, check_signal
 
 
 @dataclass(frozen=True)
@@ -280,7 +280,7 @@ class Enhancer:
         """Fresh state for a stream at ``fs`` Hz; independent streams need independent states."""
         if not self.tags.streaming:
             raise NotImplementedError(f"enhancer {self.name!r} does not stream")
-        fs = check_fs(fs, supported=self.tags.supported_fs)
+        fs = check_audio_fs(fs, supported=self.tags.supported_fs)
         return self._init_state(fs)
 
     def process_block(self, block, state) -> tuple[np.ndarray, Any]:
@@ -305,6 +305,6 @@ class Enhancer:
     def check_input(self, x, fs) -> tuple[np.ndarray, int]:
         """Validate ``x`` and ``fs`` against ``tags``; returns ``(float64 array, int fs)``."""
         tags = self.tags
-        fs = check_fs(fs, supported=tags.supported_fs)
+        fs = check_audio_fs(fs, supported=tags.supported_fs)
         x = check_signal(x, name="x", n_channels=tags.channels_in)
         return x, fs
