@@ -190,3 +190,46 @@ def test_load_results_accepts_the_sweep_axis_names(stores):
     assert len(benchmarks.load_results(dir_a, snr_in_db=10.0)) == len([k for k in base if k[1] == 10.0])
     with pytest.raises(ScenesimError, match="no column 'snr'"):
         benchmarks.load_results(dir_a, snr=0)
+
+
+def _rows(diffs_by_snr, *, offset=0.0, with_json=True, seeds=(0, 1, 2)):
+    """Rows of one enhancer: per SNR and seed a condition; snr_i_db = seed + offset + diff(snr)."""
+    rows = []
+    for snr, diff in diffs_by_snr.items():
+        for seed in seeds:
+            params = {"noise": "babble", "snr_db": snr, "seed": seed}
+            rows.append({"condition_id": f"c{snr}-{seed}", "enhancer": "eb", "status": "ok", "seed": seed,
+                         "noise": "babble", "snr_in_db": float(snr), "rt60_s": 0.0, "speech_az_deg": 45.0,
+                         "noise_az_deg": 270.0, "snr_i_db": seed * 0.7 + offset + diff,
+                         "condition_json": json.dumps(params) if with_json else None})
+    return rows
+
+
+@pytest.mark.parametrize("with_json", [True, False])
+def test_compare_groups_over_seeds_by_every_other_condition_parameter(with_json):
+    # Oracle: B - A is exactly 1 dB at 0 dB SNR and 3 dB at 10 dB for every seed, so each SNR is
+    # one group of n = 3 seeds with mean difference 1 and 3 and zero spread.  Grouping by seed too
+    # (6 groups of 1) or not by SNR (one group, mean 2) fails; with or without condition_json.
+    a = _rows({0: 0.0, 10: 0.0}, with_json=with_json)
+    b = _rows({0: 1.0, 10: 3.0}, with_json=with_json)
+    records, _ = compare_rows(a, b, metrics=("snr_i_db",))
+    got = sorted((r["snr_db"], r["n"], r["mean_diff"], r["sd_diff"]) for r in records)
+    assert got == [(0.0, 3, pytest.approx(1.0), pytest.approx(0.0)), (10.0, 3, pytest.approx(3.0), pytest.approx(0.0))]
+
+
+def test_load_results_keeps_a_stores_extra_columns_with_their_values(tmp_path):
+    # Oracle: the values written.  A column this version's schema lacks (one a newer scenesim
+    # or a plugin added to the table) comes back in the frame with its value, after the schema's.
+    import sqlite3
+
+    from benchmarks.store.sqlite import ResultStore
+
+    pytest.importorskip("pandas")
+    with ResultStore.open(tmp_path) as store:
+        store.write_rows([{"condition_id": "c1", "enhancer": "eb", "status": "ok", "snr_i_db": 4.5}])
+    with sqlite3.connect(tmp_path / "results.sqlite") as db:
+        db.execute("ALTER TABLE results ADD COLUMN plugin_score REAL")
+        db.execute("UPDATE results SET plugin_score = 1.25")
+    df = benchmarks.load_results(tmp_path)
+    assert df.loc[0, "snr_i_db"] == 4.5 and df.loc[0, "plugin_score"] == 1.25
+    assert list(df.columns[:2]) == ["condition_id", "enhancer"] and df.columns[-1] == "plugin_score"

@@ -216,3 +216,25 @@ def test_interrupt_terminates_busy_workers_instead_of_waiting_for_them():
     t0 = time.monotonic()
     ex.close()
     assert time.monotonic() - t0 < 10.0, "close() waited for the busy worker"
+
+
+@pytest.mark.parametrize("outcome", ["finished", "refused"])
+def test_the_callers_sigterm_and_sigint_handlers_are_back_after_a_run(outcome, tmp_path, capsys):
+    # Oracle: identity.  A notebook or service that set its own handlers gets exactly those back
+    # after `scenesim bench run` returns, whether the run finished or was refused mid-way.
+    def mine(signum, frame):  # pragma: no cover - never called
+        pass
+
+    def other(signum, frame):  # pragma: no cover - never called
+        pass
+
+    before = signal.signal(signal.SIGTERM, mine), signal.signal(signal.SIGINT, other)
+    try:
+        args = ["bench", "run", "smoke", "--limit", "1", "--workers", "1", "--no-report", "--out", str(tmp_path)]
+        if outcome == "refused":
+            args += ["--seeds", "100000000"]
+        main(args)
+        assert signal.getsignal(signal.SIGTERM) is mine and signal.getsignal(signal.SIGINT) is other
+    finally:
+        signal.signal(signal.SIGTERM, before[0])
+        signal.signal(signal.SIGINT, before[1])

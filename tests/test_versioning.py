@@ -124,3 +124,16 @@ def test_a_changed_column_definition_changes_every_version_and_the_report_says_s
     assert "g160 v1 (rows from before issue 32)" in (tmp_path / "report" / "summary.md").read_text()
     with pytest.raises(SweepVersionError, match=r"definitions .* -> \{\"g160\": 2\}"):
         _run(_sweep(), tmp_path)
+
+
+def test_a_store_of_one_row_is_guarded_like_any_other(tmp_path):
+    # The smallest store: one row of the 1 s sweep.  A 2 s sweep into it is refused, and the row
+    # is untouched (count 1, still the 1 s version's).
+    first = _run(_sweep(), tmp_path, limit=1)
+    assert first.n_computed == 1 and _count(tmp_path) == 1
+    with pytest.raises(SweepVersionError, match=r"holds 1 rows .*duration_s 1\.0 -> 2\.0"):
+        _run(_sweep(duration=2.0), tmp_path)
+    assert _count(tmp_path) == 1
+    with sqlite3.connect(tmp_path / "results.sqlite") as db:
+        stored = db.execute("SELECT DISTINCT sweep_version FROM results").fetchall()
+    assert stored == [(config_version(sweep_config(_sweep())),)]
