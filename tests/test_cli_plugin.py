@@ -92,3 +92,20 @@ def test_end_to_end_install_test_list_and_smoke_run(tmp_path):
     with sqlite3.connect(tmp_path / "out" / "results.sqlite") as db:
         rows = db.execute("SELECT status, snr_method FROM results WHERE enhancer = 'toy-e2e'").fetchall()
     assert rows == [("ok", "replay")] * 2
+
+
+@pytest.mark.parametrize("name", ["gain-", "gain--", "my--gain", "gain-2-", "2gain", "my_gain", "Gain"])
+def test_names_with_a_trailing_or_doubled_hyphen_are_refused(name, tmp_path, capsys):
+    # A name maps to a module (scenesim_my_gain) and a class (MyGain): "my--gain" and "gain-"
+    # would give "scenesim_my__gain" / "Gain" -- one-word pieces only, joined by single hyphens.
+    assert main(["plugin", "new", name, "--dest", str(tmp_path / "p")]) == 2
+    assert f"Parameter NAME={name!r} is invalid" in capsys.readouterr().err
+    assert not (tmp_path / "p").exists()
+
+
+@pytest.mark.parametrize(("name", "module", "cls"), [("gain2", "scenesim_gain2", "Gain2"),
+                                                      ("my-gain-3", "scenesim_my_gain_3", "MyGain3")])
+def test_good_names_map_to_their_module_and_class(name, module, cls):
+    from benchmarks.cli.plugin_scaffold import NAME_PATTERN, class_name, module_name
+
+    assert NAME_PATTERN.match(name) and module_name(name) == module and class_name(name) == cls
