@@ -113,17 +113,29 @@ def ci95_halfwidth(std: float | None, n: int) -> float | None:
     >>> round(ci95_halfwidth(1.0, 5), 4)
     1.2417
     """
+    return t_halfwidth(std, n, 0.95)
+
+
+def t_halfwidth(std: float | None, n: int, confidence: float) -> float | None:
+    """Half-width of the two-sided Student-t interval of a mean: ``t_{(1+c)/2, n-1} std / sqrt(n)``.
+
+    The one place the report's t-intervals are computed (tables, paired comparisons, verdicts);
+    None for fewer than 2 values.
+
+    >>> round(t_halfwidth(1.0, 5, 0.9), 4)
+    0.9534
+    """
     if std is None or n < 2:
         return None
-    return float(_t975(int(n) - 1) * std / math.sqrt(n))
+    return float(_t_quantile(int(n) - 1, 0.5 + confidence / 2) * std / math.sqrt(n))
 
 
 @functools.lru_cache(maxsize=256)
-def _t975(dof: int) -> float:
-    """Student-t 0.975 quantile (scipy's ``ppf`` costs ~0.5 ms; a report asks thousands of times)."""
+def _t_quantile(dof: int, q: float) -> float:
+    """Student-t ``q`` quantile (scipy's ``ppf`` costs ~0.5 ms; a report asks thousands of times)."""
     from scipy.special import stdtrit  # = scipy.stats.t.ppf, without importing scipy.stats (~0.9 s)
 
-    return float(stdtrit(dof, 0.975))
+    return float(stdtrit(dof, q))
 
 
 def _sort_key(value):
