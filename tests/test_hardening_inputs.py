@@ -147,3 +147,10 @@ def test_class7_the_stoi_pair_of_less_than_a_frame_is_undefined():
     from benchmarks.metrics.stoi_pair import stoi_estoi
 
     assert stoi_estoi(np.ones(100), np.ones(100), 10000) is None
+
+
+def test_class4_a_calibration_target_past_the_physical_rt60_names_rt60_not_the_rir_length():
+    import scenesim
+
+    with pytest.raises(ParameterError, match=r"rt60_s=100000\.0 .*\[0, 20\] s"):
+        scenesim.calibrate_room((5.0, 4.0, 3.0), 1e5)

@@ -59,7 +59,7 @@ from scenesim.room.cache import array_key, cached_array
 from scenesim.room.rt60 import measure_rt60, sabine_absorption, wall_areas
 from scenesim.room.scattering import DEFAULT_SCATTERING
 from scenesim.room.shoebox import ShoeBox, register_calibrator
-from scenesim.validate import check_fs, check_positive
+from scenesim.validate import check_fs, check_physical, check_positive
 
 CALIBRATION_PLACEMENTS = (
     ((0.31, 0.42, 0.47), (0.69, 0.63, 0.55)),
@@ -188,6 +188,7 @@ def calibrate_absorption(dims_m, rt60_s, *, absorption=None, bands_hz=None, air=
         allowed = "an RT60 > 0 s" + ("" if bands is None else f" or {n_bands} per-band values")
         raise ParameterError("rt60_s", rt60_s, allowed)
     for t in np.atleast_1d(target):  # the project's feasibility rule, as for every rt60_method
+        check_physical("rt60_s", float(t))  # past 20 s no RIR is renderable: say so, not its length
         sabine_absorption(float(t), dims, c=c)
     # the renderer whose RIRs are measured: its version is part of the result
     from scenesim.room import ism
