@@ -23,6 +23,11 @@ from scenesim.validate import check_choice, check_fs, check_int
 #: RMS of every synthesized channel (-20 dBFS); the benchmark rescales to the wanted SNR.
 NOISE_RMS = 0.1
 
+#: Longest synthesized noise (s): five times the longest signal a scene takes (120 s).
+MAX_NOISE_S = 600.0
+#: Most channels of one synthesized noise (independent draws of a field's sources).
+MAX_NOISE_CHANNELS = 64
+
 #: Number of simultaneous talkers in synthesized babble.
 BABBLE_TALKERS = 6
 #: Seconds of speech per artificial talker in the built-in babble bank.
@@ -104,9 +109,10 @@ def synthesize_noise(
         ``signal`` shaped ``(n_channels, n_samples)``, each channel at RMS :data:`NOISE_RMS`.
     """
     check_choice("noise_type", noise_type, SYNTHESIZABLE)
-    n_samples = check_int("n_samples", n_samples, minimum=1)
-    n_channels = check_int("n_channels", n_channels, minimum=1)
     fs = check_fs(fs)
+    # A typo's 10**12 samples must be an error, not a MemoryError after minutes.
+    n_samples = check_int("n_samples", n_samples, minimum=1, maximum=int(MAX_NOISE_S * fs))
+    n_channels = check_int("n_channels", n_channels, minimum=1, maximum=MAX_NOISE_CHANNELS)
     if not isinstance(rng, np.random.Generator):
         raise ParameterError("rng", rng, "a numpy.random.Generator")
     generator = _GENERATORS[noise_type]

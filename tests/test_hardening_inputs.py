@@ -154,3 +154,10 @@ def test_class4_a_calibration_target_past_the_physical_rt60_names_rt60_not_the_r
 
     with pytest.raises(ParameterError, match=r"rt60_s=100000\.0 .*\[0, 20\] s"):
         scenesim.calibrate_room((5.0, 4.0, 3.0), 1e5)
+
+
+def test_class4_synthesized_noise_is_bounded_before_it_is_allocated():
+    from data_recipes import synthesize_noise
+
+    with pytest.raises(ParameterError, match=r"n_samples=1000000000000 .*\[1, 9600000\]"):
+        synthesize_noise("babble", 10**12, fs=FS, rng=np.random.default_rng(0))
