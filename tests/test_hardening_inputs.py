@@ -161,3 +161,15 @@ def test_class4_synthesized_noise_is_bounded_before_it_is_allocated():
 
     with pytest.raises(ParameterError, match=r"n_samples=1000000000000 .*\[1, 9600000\]"):
         synthesize_noise("babble", 10**12, fs=FS, rng=np.random.default_rng(0))
+
+
+def test_class7_dnsmos_of_silence_is_undefined_with_its_reason():
+    pytest.importorskip("onnxruntime")
+    from benchmarks.metrics import dnsmos
+    from benchmarks.metrics.scoring import score
+
+    if not dnsmos.installed():
+        pytest.skip('DNSMOS extra not installed: pip install "scenesim[dnsmos]"')
+    row = score(np.zeros(3 * FS), FS, dnsmos=True)
+    assert row["dnsmos_ovrl"] is None and row["dnsmos_p808"] is None
+    assert "DNSMOS: the scored signal is silent" in row["error"]

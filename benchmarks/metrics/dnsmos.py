@@ -38,6 +38,7 @@ import math
 
 import numpy as np
 
+from benchmarks.metrics.speech import _check_not_silent
 from scenesim.errors import ExtraNotInstalled, MetricError, ParameterError
 
 __all__ = ["COLUMNS", "FS", "dnsmos_p808", "dnsmos_p835", "input_columns", "installed", "model_digests",
@@ -186,6 +187,7 @@ def _checked(x, fs: int) -> np.ndarray:
         raise ParameterError("x", x, "a finite, non-empty mono signal (n,)")
     if np.max(np.abs(x)) > 1.0:
         raise MetricError("DNSMOS: samples beyond full scale (|x| > 1); scale the signal down")
+    _check_not_silent(x, "scored", "DNSMOS")  # the network rates silence ~1.8: undefined, not a score
     return x
 
 
