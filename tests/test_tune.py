@@ -3,8 +3,8 @@
 The toy enhancer ``toy-peak`` scales the reference mic by ``g(p) = 1 - (p - 0.3)**2``.  G.160's
 total noise level reduction of a pure gain is exactly ``20 log10 g`` dB (frame powers all scale
 by ``g**2``, so their log-mean shifts by ``20 log10 g``: checked below to 1e-9 dB), so the
-objective ``mean:g160_tnlr_db`` peaks at ``p = 0.3`` in closed form.  Sweeps are one 1-s
-condition, run in this process (``--workers 1``: the toy is registered here only).
+objective ``mean:g160_tnlr_exact_db`` peaks at ``p = 0.3`` in closed form.  Sweeps are one 4-s
+condition (G.160 needs P.56 pauses longer than its 0.2 s hangover, which 1 s lacks), run in this process (``--workers 1``: the toy is registered here only).
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ snr_db = [10]
 seeds = [0]
 [fixed]
 fs = 16000
-duration_s = 1.0
+duration_s = 4.0
 rt60_s = 0.0
 speech_az_deg = 45
 noise_az_deg = 270
@@ -90,7 +90,7 @@ def _sweep(tmp_path, split=""):
 
 
 def _args(sweep, out, trials, *extra):
-    return ["tune", "toy-peak", "--sweep", sweep, "--param", "p=0:1", "--objective", "mean:g160_tnlr_db",
+    return ["tune", "toy-peak", "--sweep", sweep, "--param", "p=0:1", "--objective", "mean:g160_tnlr_exact_db",
             "--trials", str(trials), "--out", str(out), "--workers", "1", *extra]
 
 
@@ -107,7 +107,7 @@ def test_the_toy_objective_is_20_log10_of_the_gain(tmp_path):
     from benchmarks.tune.objective import Objective
     from benchmarks.tune.trials import SweepEvaluation
 
-    ev = SweepEvaluation(load_sweep(_sweep(tmp_path)), "toy-peak", Objective.parse("mean:g160_tnlr_db"), (),
+    ev = SweepEvaluation(load_sweep(_sweep(tmp_path)), "toy-peak", Objective.parse("mean:g160_tnlr_exact_db"), (),
                          tmp_path / "o", workers=1)
     for p in (0.3, 0.8):
         assert ev({"p": p}).value == pytest.approx(20 * math.log10(1 - (p - PEAK) ** 2), abs=1e-9)
