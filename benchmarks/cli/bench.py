@@ -114,13 +114,7 @@ def _run(args) -> int:
         check_workers(args.workers)
         sweep, conditions = _select_conditions(args.sweep, seed=args.seed, limit=args.limit, seeds=args.seeds,
                                                split=args.split)
-    missing = sweep.missing_extras()
-    if missing:  # before any work: a run without them would store empty columns
-        raise ConfigError(f"sweep {sweep.name!r} needs what this install lacks: " + "; ".join(missing))
-    if args.data_dir is not None:  # chosen explicitly: unusable speech is an error, not a fallback
-        from data_recipes import open_data
-
-        open_data(args.data_dir, require_speech=True, split=sweep.split)
+    _check_runnable(sweep, args.data_dir)
     out = prepare_out_dir("--out", args.out)
     slow = slow_rir_warning(conditions)
     if slow:
@@ -166,6 +160,18 @@ def _run(args) -> int:
         )
         return 1
     return 0
+
+
+def _check_runnable(sweep, data_dir) -> None:
+    """Refuse before any work: extras the sweep needs and lacks (a run would store empty columns), and a
+    data folder chosen explicitly without usable speech (an error there, not a fallback)."""
+    missing = sweep.missing_extras()
+    if missing:
+        raise ConfigError(f"sweep {sweep.name!r} needs what this install lacks: " + "; ".join(missing))
+    if data_dir is not None:
+        from data_recipes import open_data
+
+        open_data(data_dir, require_speech=True, split=sweep.split)
 
 
 def _mark_killed_runs(out: Path) -> None:
