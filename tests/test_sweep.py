@@ -81,7 +81,7 @@ def test_known_id_value():
 
 @pytest.mark.parametrize(
     ("name", "n_conditions", "n_enhancers"),
-    [("thesis", 18, 4), ("thesis-text", 18, 3), ("thesis-fit", 18, 3), ("phone", 120, 13), ("mismatch", 96, 4), ("peers", 45, 15), ("reverb", 80, 13),
+    [("thesis", 18, 4), ("thesis-text", 18, 3), ("thesis-fit", 18, 3), ("phone", 120, 15), ("mismatch", 96, 4), ("peers", 45, 15), ("reverb", 80, 13),
      ("distance", 36, 10), ("angles", 24, 5),
      ("smoke", 4, 4)],
 )
