@@ -168,7 +168,7 @@ def check_params_json(enhancer) -> None:
     if back != params:
         _fail(enhancer, "params_json", f"from_json(to_json()) gave {back!r} != {params!r}")
     if back.to_json() != text:
-        _fail(enhancer, "params_json", "JSON text changed on a second round trip")
+        _fail(enhancer, "params_json", "JSON text changed when round-tripped twice")
     if type(enhancer)(back) != enhancer:
         _fail(enhancer, "params_json", "rebuilding from the round-tripped params gave a different enhancer")
 
