@@ -228,7 +228,13 @@ def _one_line_error(capsys, argv):
 
 def test_listen_errors_are_one_line(sweep, tmp_path, capsys):
     assert "no results store" in _one_line_error(capsys, ["listen", str(tmp_path / "nowhere")])
-    assert "no clips" in _one_line_error(capsys, ["listen", str(sweep), "--count", "0"])
+    failed = tmp_path / "failed"  # a store whose only row failed: nothing to play
+    with ResultStore.open(failed) as store:
+        store.write_rows([{"condition_id": "c1", "enhancer": "eb", "status": "error", "error": "x"}])
+    assert "no clips" in _one_line_error(capsys, ["listen", str(failed), "--port", "0"])
+    with pytest.raises(SystemExit) as exit_:  # argparse's own refusal, naming the option
+        main(["listen", str(sweep), "--count", "0"])
+    assert exit_.value.code == 2 and "argument --count: expected an integer >= 1, got '0'" in capsys.readouterr().err
     assert "--systems" in _one_line_error(capsys, ["listen", str(sweep), "--systems", "nope"])
     assert "--conditions" in _one_line_error(capsys, ["listen", str(sweep), "--conditions", "nope"])
     assert "--listener" in _one_line_error(capsys, ["listen", str(sweep), "--listener", "../x"])
