@@ -234,3 +234,4 @@ def test_report_tells_the_text_reading_from_the_fitted_one():
     assert text.count("in-sample fit") == 1 and text.index("in-sample fit") > second
     assert "| 7.1 | EB | babble | 0 | 20.00 |" in text[:second] and "| 7.1 | EB | babble | 0 | 13.00 |" in text[second:]
     assert "What no reading reproduces" in text
+    assert text.count("realistic phones") == 1 and text.index("realistic phones") < second  # beside the text's

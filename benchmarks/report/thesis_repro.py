@@ -122,6 +122,13 @@ UNREPRODUCED = (
     "by the differential response) and with PESQ's saturation near 3.5-4."
 )
 
+#: Said beside the text's reading: its numbers are the thesis' idealised simulation, not a phone's.
+IDEALISED = (
+    "These are the thesis' idealised conditions (an exact far field, two identical noiseless mics, one point "
+    "noise, no room). The same systems on realistic phones -- mic tolerances, self-noise, diffuse babble, a "
+    "factory hall, wind -- are one command away: `scenesim bench run phone --split test --out results/phone`."
+)
+
 #: Sweep name -> (section title, reading) of the thesis' own simulation.
 SECTIONS = {
     "thesis-text": ("## The thesis as its text describes it (preset `thesis-text`)", TEXT_READING),
@@ -177,6 +184,8 @@ def _reading_section(sweep: str, rows: Sequence[dict], search_results=None) -> l
     lines = [title, ""]
     if reading is not None:
         lines += [f"Reading: {reading}.", ""]
+    if reading is TEXT_READING:
+        lines += [IDEALISED, ""]
     found = _search_results(search_results) if fitted else None
     if fitted:
         lines += [*held_out_part(found), "**The in-sample fit below was chosen by scoring against these same "
