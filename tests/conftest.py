@@ -45,3 +45,14 @@ def shared_data_dir(shared_dir: Path) -> Path:
     if not (data / "speech").is_dir():
         pytest.skip(f"real audio not found at {data}/speech")
     return data
+
+
+@pytest.fixture(scope="session")
+def chromium():
+    """The headless Chromium binary the browser tests drive; they skip, with the reason, where there is none."""
+    from headless_browser import find_chromium  # tests/ is on sys.path for the test modules
+
+    binary = find_chromium()
+    if binary is None:
+        pytest.skip("no Chromium found (apt-get install chromium, or set SCENESIM_CHROMIUM)")
+    return binary

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from _bench_smoke import local_smoke_run
-from headless_browser import find_chromium, inspect_page
+from headless_browser import inspect_page
 
 from benchmarks.cli.main import main
 from benchmarks.metrics import speech as M
@@ -219,12 +219,6 @@ def test_missing_data_and_changed_specs_are_said_on_the_page(smoke_copy, tmp_pat
 # -- the page in a real browser ------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def chromium():
-    binary = find_chromium()
-    if binary is None:
-        pytest.skip("no Chromium found (apt-get install chromium, or set SCENESIM_CHROMIUM)")
-    return binary
 
 
 def test_page_in_headless_chromium(smoke_copy, chromium, capsys):

@@ -20,7 +20,7 @@ import urllib.request
 
 import numpy as np
 import pytest
-from headless_browser import BrowserPage, DevToolsPipe, find_chromium
+from headless_browser import BrowserPage, DevToolsPipe
 
 from benchmarks.cli.main import main
 from benchmarks.report.listen_server import ListeningTest, make_server, server_url
@@ -44,12 +44,6 @@ def sweep(tmp_path_factory):
     return out
 
 
-@pytest.fixture(scope="module")
-def chromium():
-    binary = find_chromium()
-    if binary is None:
-        pytest.skip("no Chromium found (apt-get install chromium, or set SCENESIM_CHROMIUM)")
-    return binary
 
 
 class _Serving:

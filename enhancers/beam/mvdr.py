@@ -66,8 +66,8 @@ from typing import ClassVar
 import numpy as np
 
 from enhancers.beam.noise_stats import (
-    SPP_METHODS,
     NoiseStatsConfig,
+    check_stats_fields,
     hermitian_inv,
     loaded,
     noise_stats_init,
@@ -75,7 +75,7 @@ from enhancers.beam.noise_stats import (
 )
 from enhancers.core.chain import Chain
 from enhancers.core.stft_stage import StftEnhancer, StftParams
-from scenesim.validate import check_choice, check_positive, check_range
+from scenesim.validate import check_range
 
 __all__ = ["Mvdr", "MvdrSs", "Mwf", "gevd_rtf", "mvdr_weights", "rank1_mwf_weights", "sdw_mwf_weights"]
 
@@ -177,10 +177,7 @@ class _NoiseStatsParams(StftParams):
 
     def _check_stats(self):
         self._check_stft()
-        check_choice("spp", self.spp, SPP_METHODS)
-        check_positive("tau_noisy_s", self.tau_noisy_s)
-        check_positive("tau_noise_s", self.tau_noise_s)
-        check_range("prior_absence", self.prior_absence, 0.0, 1.0, lo_open=True, hi_open=True)
+        check_stats_fields(self)
         check_range("loading", self.loading, 0.0, 1e3)
 
 

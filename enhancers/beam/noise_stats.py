@@ -160,6 +160,24 @@ def multichannel_spp(y: np.ndarray, Phi_yy: np.ndarray, Phi_vv: np.ndarray, *, q
 
 
 # -- the stage -------------------------------------------------------------------------------------
+def check_stats_fields(obj) -> None:
+    """Check the stage's fields an object carries (``spp``, ``tau_noise_s``, ``prior_absence`` and, where
+    present, ``tau_noisy_s``): the one check shared by the config and the enhancers' Params.
+
+    >>> from types import SimpleNamespace
+    >>> check_stats_fields(SimpleNamespace(spp="single", tau_noise_s=0.5, prior_absence=0.5))
+    >>> check_stats_fields(SimpleNamespace(spp="single", tau_noise_s="x", prior_absence=0.5))
+    Traceback (most recent call last):
+    ...
+    scenesim.errors.ParameterError: Parameter tau_noise_s='x' is invalid: expected a finite real number.
+    """
+    check_choice("spp", obj.spp, SPP_METHODS)
+    for name in ("tau_noisy_s", "tau_noise_s"):
+        if hasattr(obj, name):  # time constants: above 10 min nothing would ever be learned
+            check_range(name, getattr(obj, name), 0.0, 600.0, lo_open=True)
+    check_range("prior_absence", obj.prior_absence, 0.0, 1.0, lo_open=True, hi_open=True)
+
+
 @dataclass(frozen=True)
 class NoiseStatsConfig:
     """Constants of :func:`noise_stats_step` (see module docstring).
@@ -191,10 +209,7 @@ class NoiseStatsConfig:
 
     def __post_init__(self):
         check_positive("hop_s", self.hop_s)
-        check_choice("spp", self.spp, SPP_METHODS)
-        check_positive("tau_noisy_s", self.tau_noisy_s)
-        check_positive("tau_noise_s", self.tau_noise_s)
-        check_range("prior_absence", self.prior_absence, 0.0, 1.0, lo_open=True, hi_open=True)
+        check_stats_fields(self)
         if self.spp_config is None:
             object.__setattr__(self, "spp_config", SppConfig(hop_s=self.hop_s))
 

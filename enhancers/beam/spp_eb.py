@@ -92,8 +92,8 @@ import numpy as np
 
 from enhancers.beam.mic_calibration import _check_band, estimate_from_averages
 from enhancers.beam.noise_stats import (
-    SPP_METHODS,
     NoiseStatsConfig,
+    check_stats_fields,
     noise_stats_init,
     noise_stats_step,
 )
@@ -101,7 +101,7 @@ from enhancers.core.chain import Chain
 from enhancers.core.eq import look_eq_gain
 from enhancers.core.stft_stage import TINY, StftEnhancer, StftParams, bin_omega, smooth_frames
 from scenesim.errors import ParameterError
-from scenesim.validate import check_choice, check_range
+from scenesim.validate import check_range
 
 __all__ = ["EbSppSs", "SppElkoBeamformer", "closed_form_weights"]
 
@@ -203,9 +203,7 @@ class SppElkoBeamformer(StftEnhancer):
 
         def __post_init__(self):
             self._check_stft()
-            check_choice("spp", self.spp, SPP_METHODS)
-            check_range("tau_noise_s", self.tau_noise_s, 0.0, 600.0, lo_open=True)
-            check_range("prior_absence", self.prior_absence, 0.0, 1.0, lo_open=True, hi_open=True)
+            check_stats_fields(self)
             _check_band("fit_band_hz", self.fit_band_hz)
             check_range("smooth_frac", self.smooth_frac, 0.0, 1.0)
             check_range("max_gain_db", self.max_gain_db, 0.0, 40.0)
