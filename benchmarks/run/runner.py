@@ -87,16 +87,20 @@ def plan_conditions(
 ) -> list[ConditionTask]:
     """One task per condition that misses at least one enhancer's row, in sweep order; the
     conditions whose ids are in ``save_audio`` return their listening clips too."""
-    specs = [
-        EnhancerSpec(name, json.dumps(dict(sweep.enhancer_params.get(name, {})), sort_keys=True))
-        for name in sweep.enhancers
-    ]
+    specs = [enhancer_spec(sweep, name) for name in sweep.enhancers]
     tasks = []
     for cond in conditions:
         missing = tuple(s for s in specs if (cond.id, s.name) not in done)
         if missing:
             tasks.append(ConditionTask(cond.to_json(), missing, data_dir, save_audio=cond.id in save_audio))
     return tasks
+
+
+def enhancer_spec(sweep: Sweep, name: str) -> EnhancerSpec:
+    """What builds system ``name`` of ``sweep``: its parameters, and its parameter set's enhancer."""
+    base = sweep.registered_name(name)
+    params = json.dumps(dict(sweep.enhancer_params.get(name, {})), sort_keys=True)
+    return EnhancerSpec(name, params, "" if base == name else base)
 
 
 def plan_units(tasks: Sequence[ConditionTask], *, workers: int) -> list[UnitTask]:
@@ -191,7 +195,8 @@ def run_sweep(
             source=sweep.source,
             config_toml=sweep.text,
             options={"limit": limit, "seed": seed, "seeds": seeds, "retry_errors": retry_errors, "enhancers": sweep.enhancers,
-                     "split": sweep.split, "seeds_used": sorted({c.seed for c in conditions})},
+                     "split": sweep.split, "seeds_used": sorted({c.seed for c in conditions}),
+                     **_tuned_option(sweep)},
             executor=executor,
             workers=workers or (None if scheduler else os.cpu_count()),
             scheduler=scheduler,
@@ -247,6 +252,15 @@ def _select_conditions(sweep: Sweep | str | Path, *, seed: int | None, limit: in
             raise ParameterError("limit", limit, "an integer >= 1")
         conditions = stratified(conditions, limit, sweep.swept_axes)
     return sweep, conditions
+
+
+def _tuned_option(sweep: Sweep) -> dict[str, Any]:
+    """``{"tuned": {system: provenance}}`` for a sweep with tuned systems, else ``{}`` (the run's
+    options then read as before)."""
+    from benchmarks.run.parameter_sets import tuned_provenance
+
+    tuned = tuned_provenance(sweep)
+    return {"tuned": tuned} if tuned else {}
 
 
 def _resolve_data_dir(data_dir: str | Path | None) -> str | None:
@@ -376,6 +390,7 @@ def _progress(total: int, name: str, *, enabled: bool, workers: int | None = Non
 __all__ = [
     "EnhancerSpec",
     "RunSummary",
+    "enhancer_spec",
     "ConditionTask",
     "UnitTask",
     "build_enhancer",

@@ -24,6 +24,14 @@ A sweep is a TOML file (the presets ship in ``benchmarks/presets``)::
     [enhancer_params.eb]        # constructor overrides per enhancer name
     mu = 0.1
 
+    [parameter_sets]            # a tuned system: its name (listed in axes.enhancers) = a params.toml
+    eb-robust-tuned = "tune-eb/params.toml"
+
+A ``[parameter_sets]`` entry runs the parameter set ``scenesim tune`` wrote (a path relative to the
+sweep file's folder, else to the working directory) as a system of its own: its enhancer with its
+parameters, named as the key; the run records the set's provenance (what it was tuned on) and the
+report says when its rows use that material (:mod:`benchmarks.run.parameter_sets`).
+
 A sweep draws its speech and noise from one split of the data, ``split = "dev" | "test" | "all"``
 in ``[sweep]`` or ``[fixed]`` (default ``"all"``: every file and seed; :mod:`data_recipes.splits`);
 a split is no axis: every row of a run has the one split, stored per row.
@@ -58,6 +66,7 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.run.parameter_sets import ParameterSet, load_parameter_set
 from data_recipes.splits import SPLITS
 from scenesim.errors import ConfigError, ExtraNotInstalled, ParameterError, ScenesimError
 from scenesim.room.shoebox import RT60_METHODS
@@ -320,7 +329,7 @@ PARAMETERS: dict[str, _Param] = {
 }
 
 _AXIS_ALIASES = {"seeds": "seed"}  # axis spelling -> parameter
-_TOP_TABLES = ("sweep", "axes", "fixed", "rooms", "enhancer_params")
+_TOP_TABLES = ("sweep", "axes", "fixed", "rooms", "enhancer_params", "parameter_sets")
 _SWEEP_KEYS = ("name", "description", "split", "ranking")
 #: Metrics a sweep's ``[sweep] ranking = [...]`` may name (result columns, higher is better); the
 #: report ranks by them in turn (:mod:`benchmarks.report.ranking`).
@@ -507,6 +516,9 @@ class Sweep:
     ranking : tuple of str
         ``[sweep] ranking``: the metrics the report ranks by, in turn (:data:`RANKABLE_METRICS`;
         empty: :data:`DEFAULT_RANKING`).  Decides no number of a row: not part of the version.
+    parameter_sets : mapping name -> (path, ParameterSet)
+        ``[parameter_sets]``: systems built from a tuned parameter set (the file's resolved path
+        and its contents); their parameters are also in ``enhancer_params``.
     """
 
     name: str
@@ -520,6 +532,15 @@ class Sweep:
     seed_offset: int = 0
     split: str = "all"
     ranking: tuple[str, ...] = ()
+    parameter_sets: Mapping[str, tuple[str, ParameterSet]] = field(default_factory=dict)
+
+    def registered_name(self, name: str) -> str:
+        """The registry name that builds system ``name``: its parameter set's enhancer, else itself.
+
+        >>> load_sweep("smoke").registered_name("eb")
+        'eb'
+        """
+        return self.parameter_sets[name][1].enhancer if name in self.parameter_sets else name
 
     def conditions(self) -> list[Condition]:
         """All conditions in deterministic order (Cartesian product, SNR innermost).
@@ -587,7 +608,7 @@ class Sweep:
 
         out = []
         for name in self.enhancers:
-            spec = get_spec(name)
+            spec = get_spec(self.registered_name(name))
             if spec.not_installed is not None:
                 out.append(f"enhancer {name!r} is not installed: {spec.not_installed}")
         metrics = set().union(*(set(m) for m in self.axes.get("metrics", ((),))))
@@ -780,6 +801,7 @@ class _Parser:
         description = meta.get("description", "")
 
         rooms = self._rooms(data.get("rooms", {}))
+        self.psets = self._parameter_sets(data.get("parameter_sets", {}))
         fixed = {k: v for k, v in data.get("fixed", {}).items() if k != "split"}
         axes, enhancers = self._axes(data.get("axes", {}), fixed)
         n_conditions = math.prod(len(v) for v in axes.values())
@@ -794,6 +816,10 @@ class _Parser:
             table = ("axes",) if "rt60_s" in data.get("axes", {}) else ("fixed",)
             raise self.error(table, "rt60_s", "rt60_s > 0 needs a room: define [rooms.<name>] and set room")
         params = self._enhancer_params(data.get("enhancer_params", {}), enhancers)
+        for system, (_, pset) in self.psets.items():
+            if system not in enhancers:
+                raise self.error(("parameter_sets",), system, f"system {system!r} is not in axes.enhancers")
+            params[system] = dict(pset.params)
         self._check_sensor_keys(axes, data)
         self._check_distances(axes, data)
 
@@ -808,6 +834,7 @@ class _Parser:
             rooms=rooms,
             split=split,
             ranking=ranking,
+            parameter_sets=self.psets,
         )
         self._check_room_rt60(sweep, data)
         self._check_geometry(sweep, data)
@@ -939,7 +966,7 @@ class _Parser:
         if len(set(enh)) != len(enh):
             raise self.error(("axes",), "enhancers", f"repeated names in {enh!r}")
         known = _available_enhancers()
-        for e in enh:
+        for e in (e for e in enh if e not in self.psets):
             if e.split("@")[0] not in known:
                 raise self.error(("axes",), "enhancers", f"unknown enhancer {e!r}; available: {', '.join(known)}")
             try:  # a known name with an unknown version (eb@99)
@@ -955,6 +982,9 @@ class _Parser:
                 raise self.error(("enhancer_params",), name, f"enhancer {name!r} is not in axes.enhancers")
             if not isinstance(params, dict):
                 raise self.error(("enhancer_params",), name, "expected a table of parameter = value")
+            if name in self.psets:
+                raise self.error(("enhancer_params",), name, f"system {name!r} takes its parameters from "
+                                 "its parameter set ([parameter_sets]); edit that file or name another")
             try:
                 _check_enhancer_params(name, params)
             except ParameterError as exc:
@@ -962,6 +992,27 @@ class _Parser:
                     raise self.error(("enhancer_params", name), exc.name, str(exc)) from None
                 raise self.error(("enhancer_params",), name, str(exc)) from None
             out[name] = dict(params)
+        return out
+
+    def _parameter_sets(self, table: dict) -> dict[str, tuple[str, ParameterSet]]:
+        """``[parameter_sets]``: a system name of its own = the path of a ``params.toml``."""
+        known = set(_available_enhancers())
+        out = {}
+        for name, value in table.items():
+            if not isinstance(value, str) or not value:
+                raise self.error(("parameter_sets",), name, f"expected the path of a params.toml, got {value!r}")
+            if name.split("@")[0] in known or "@" in name:
+                raise self.error(("parameter_sets",), name, "a tuned system needs a name of its own, without '@' "
+                                 "and not a registered enhancer's")
+            path = Path(value)
+            if not path.is_absolute() and Path(self.source).is_file():
+                path = Path(self.source).parent / path
+            try:
+                pset = load_parameter_set(path)
+                _check_enhancer_params(pset.enhancer, dict(pset.params))
+            except ScenesimError as exc:
+                raise self.error(("parameter_sets",), name, str(exc)) from None
+            out[name] = (str(path.resolve()), pset)
         return out
 
     def _table_of(self, key: str, data: dict) -> tuple[str, ...]:

@@ -70,6 +70,10 @@ def sweep_config(sweep: Sweep) -> dict[str, Any]:
             for name, r in sorted(sweep.rooms.items())
         },  # fmt: skip
         "definitions": dict(DEFINITIONS),
+        # the enhancer each [parameter_sets] system builds (its parameters are in enhancer_params);
+        # absent without such systems, so the versions of other sweeps stay as they were
+        **({"parameter_sets": {n: sweep.registered_name(n) for n in sorted(sweep.parameter_sets)}}
+           if sweep.parameter_sets else {}),
     }
 
 
@@ -101,7 +105,7 @@ def describe_changes(old: Mapping[str, Any], new: Mapping[str, Any], *, limit: i
         a, b = old.get("axes", {}).get(key), new.get("axes", {}).get(key)
         if a != b:
             parts.append(f"{key} {_show(a)} -> {_show(b)}")
-    for key in ("seeds", "enhancers", "rooms", "definitions"):
+    for key in ("seeds", "enhancers", "rooms", "definitions", "parameter_sets"):
         if old.get(key) != new.get(key):
             parts.append(f"{key} {_show(old.get(key))} -> {_show(new.get(key))}")
     po, pn = old.get("enhancer_params", {}), new.get("enhancer_params", {})

@@ -51,10 +51,12 @@ _CONDITION_COLUMNS = (
 
 @dataclass(frozen=True)
 class EnhancerSpec:
-    """What a worker needs to build one enhancer: the sweep's name for it and its params."""
+    """What a worker needs to build one enhancer: the sweep's name for it, its params, and the
+    registry name that builds it when that differs (a ``[parameter_sets]`` system; "": ``name``)."""
 
     name: str
     params_json: str = "{}"
+    enhancer: str = ""
 
     @property
     def params(self) -> dict[str, Any]:
@@ -251,7 +253,8 @@ def build_enhancer(spec: EnhancerSpec, cond: Condition):
     """The enhancer of a spec, with the condition's array geometry when it needs one."""
     from enhancers.core.registry import make, with_geometry
 
-    return with_geometry(make(spec.name, **spec.params), spacing_m=cond.spacing_m, c_mps=SPEED_OF_SOUND_MPS)
+    return with_geometry(make(spec.enhancer or spec.name, **spec.params), spacing_m=cond.spacing_m,
+                         c_mps=SPEED_OF_SOUND_MPS)
 
 
 def run_unit(unit: UnitTask) -> list[list[dict[str, Any]]]:

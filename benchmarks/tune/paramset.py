@@ -19,7 +19,14 @@ A parameter set is a TOML file::
 the provenance in its registry entry (``enhancers.core.registry.get_spec(name).provenance``).
 A registration lives in the process that made it (a notebook, ``enhancers.make``, a
 ``--workers 1`` run); pool workers start from a fork server that never saw it, so for
-``scenesim bench run`` put the ``[params]`` into the sweep's ``[enhancer_params.<enhancer>]``.
+``scenesim bench run`` name the file in the sweep's ``[parameter_sets]`` table
+(``eb-robust-tuned = "tune-eb/params.toml"``, the name then listed in ``axes.enhancers``).
+Both ways record the provenance with the run, and the report says on top when a tuned system
+is evaluated on the material it was tuned on (:mod:`benchmarks.tune.overlap`).  Parameters
+copied by hand into ``[enhancer_params]`` carry no provenance.
+
+The reader (:class:`ParameterSet`, :func:`load_parameter_set`) lives in
+:mod:`benchmarks.run.parameter_sets`, below the runner that reads a sweep's parameter sets.
 """
 
 from __future__ import annotations
@@ -27,30 +34,17 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import sys
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from benchmarks.run.parameter_sets import ParameterSet, load_parameter_set, origin
 from scenesim.errors import ConfigError
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - exercised on 3.10 only
-    import tomli as tomllib
+__all__ = ["PARAMS_FILE", "ParameterSet", "data_fingerprint", "load_parameter_set", "register_tuned",
+           "save_parameter_set", "versions"]
 
 PARAMS_FILE = "params.toml"
-
-
-@dataclass(frozen=True)
-class ParameterSet:
-    """A named set of an enhancer's parameters and its provenance (what it was tuned on)."""
-
-    name: str
-    enhancer: str
-    params: Mapping[str, Any]
-    provenance: Mapping[str, Any] = field(default_factory=dict)
 
 
 def _toml_value(value: Any) -> str:
@@ -93,27 +87,6 @@ def save_parameter_set(path: str | Path, pset: ParameterSet) -> Path:
     return path
 
 
-def load_parameter_set(path: str | Path) -> ParameterSet:
-    """Read a parameter set written by :func:`save_parameter_set` (``scenesim tune``'s ``params.toml``).
-
-    Lists come back as lists (``Params.from_dict`` turns them into tuples where a field is one);
-    fields listed in ``unset`` come back as None.  Errors name the file.
-    """
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text("utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"cannot read parameter set {path}: {exc.strerror or exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not a parameter set (invalid TOML: {exc})") from None
-    head = data.get("parameter_set")
-    if not isinstance(head, dict) or not isinstance(head.get("enhancer"), str):
-        raise ConfigError(f"{path}: not a parameter set (expected [parameter_set] with enhancer = \"NAME\")")
-    params = dict(data.get("params", {}))
-    params.update(dict.fromkeys(head.get("unset", ()), None))
-    return ParameterSet(str(head.get("name", path.stem)), head["enhancer"], params, dict(data.get("provenance", {})))
-
-
 def register_tuned(name: str, path: str | Path) -> ParameterSet:
     """Register the parameter set at ``path`` as enhancer ``name`` (its provenance in the entry).
 
@@ -125,7 +98,7 @@ def register_tuned(name: str, path: str | Path) -> ParameterSet:
     pset = load_parameter_set(path)
     base = get_spec(pset.enhancer)
     spec = register(name, base.load(), **{**base.default_params, **pset.params})
-    spec.provenance = {"parameter_set": str(Path(path).resolve()), "enhancer": pset.enhancer, **pset.provenance}
+    spec.provenance = origin(path, pset)
     return pset
 
 
