@@ -4,7 +4,9 @@
 What the store's ``runs`` table says about the rows is said on the page, never averaged in
 silently (:func:`coverage_banner`): a run limited to ``N of M`` conditions of its sweep, rows of
 a run that stopped (interrupted, failed) or never finished, and rows of other sweep versions
-(left out and counted).  The sweep's ``[sweep] ranking`` rule is read from the last run's TOML.
+(left out and counted), and the rows of a tuned system that use the material it was tuned on
+(:mod:`benchmarks.tune.overlap`: in-sample numbers, named per system, counted in ``in_sample.csv``).
+The sweep's ``[sweep] ranking`` rule is read from the last run's TOML.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.store.sqlite import ResultStore
+from benchmarks.tune.overlap import overlap_banner, store_overlaps, write_overlap_csv
 
 
 def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None, listen=None) -> list[Path]:
@@ -47,8 +50,13 @@ def write_store_report(out_dir: str | Path, *, store: ResultStore | None = None,
     meta["column definitions"] = definitions_text(config)
     sweep = last_sweep(runs)
     banner += coverage_banner(rows, runs, sweep)
+    overlaps = store_overlaps(rows, runs)
+    banner += overlap_banner(overlaps)
     ranking = sweep.ranking if sweep is not None else ()
-    return list(write_report(rows, Path(out_dir), meta=meta, listen=listen, ranking=ranking, banner=banner))
+    paths = list(write_report(rows, Path(out_dir), meta=meta, listen=listen, ranking=ranking, banner=banner))
+    if overlaps:  # the tuned systems' material and their in-sample counts, beside the tables
+        paths.append(write_overlap_csv(paths[0].parent / "in_sample.csv", overlaps))
+    return paths
 
 
 def definitions_text(config_json: str | None) -> str:

@@ -21,6 +21,7 @@ from typing import Any
 from benchmarks.run.executors import check_workers
 from benchmarks.tune.holdout import REPORT_METRICS, dev_test_table, write_report
 from benchmarks.tune.objective import Constraint, Objective
+from benchmarks.tune.overlap import count_overlap, material_labels
 from benchmarks.tune.paramset import (
     PARAMS_FILE,
     ParameterSet,
@@ -154,12 +155,13 @@ def tune(s: TuneSettings, *, log: Callable[[str], None] | None = None) -> TuneOu
     if not feasible(best):
         log(f"scenesim: warning: no trial met every constraint; the least violating (#{best.number}) is kept")
     n_looks = int(study.user_attrs.get("test_evaluations", 0))
-    pset = ParameterSet(f"{s.enhancer}-tuned", s.enhancer, dict(best.params),
-                        _provenance(s, p, config, study, best, n_looks))
+    dev_rows = evaluation.rows(best.params)  # its store is complete: read back, not rerun
+    pset = ParameterSet(f"{s.enhancer}-tuned", s.enhancer, dict(best.params),  # dev_files: what later runs are checked against
+                        {**_provenance(s, p, config, study, best, n_looks), "dev_files": material_labels(dev_rows)})
     params_file = save_parameter_set(out / PARAMS_FILE, pset)
     if not s.run_test:
         return TuneOutcome(params_file, pset, (), n_looks)
-    return _holdout(s, p, study, evaluation, pset, params_file, log)
+    return _holdout(s, p, study, evaluation, pset, params_file, dev_rows, log)
 
 
 def _announce(s: TuneSettings, p: _Plan, study, log) -> None:
@@ -192,7 +194,7 @@ def _provenance(s: TuneSettings, p: _Plan, config, study, best, n_looks: int) ->
 
 
 def _holdout(s: TuneSettings, p: _Plan, study, evaluation: SweepEvaluation, pset: ParameterSet,
-             params_file: Path, log) -> TuneOutcome:
+             params_file: Path, dev_rows: list[dict], log) -> TuneOutcome:
     """Run ``pset`` once on test (seeds after the dev seeds), count the look, write the report."""
     n_test = s.test_seeds or len(p.dev_seeds)
     test = test_sweep(p.dev, p.dev_seeds, n_test)
@@ -207,10 +209,13 @@ def _holdout(s: TuneSettings, p: _Plan, study, evaluation: SweepEvaluation, pset
     if n_looks > 1:
         log(f"scenesim: warning: test has been looked at {n_looks} times for this study: its numbers "
             "now inform choices and are no longer held out")
-    dev_rows = evaluation.rows(pset.params)
     metrics = (p.objective.column, *(c.test.column for c in p.constraints), *REPORT_METRICS)
     table = dev_test_table(dev_rows, test_rows, metrics, seed=s.sampler_seed)
     header = _report_header(s, p, pset, test_seeds, n_looks)
+    leak = count_overlap(pset.name, test_rows, pset.provenance, lambda row: p.data["data"])
+    if leak.in_sample:  # the test run is built disjoint from dev; if it ever is not, say so first
+        header = [f"**⚠ {leak.banner()}**", "", *header]
+        log(f"scenesim: warning: {leak.banner()}")
     lines = [f"- `{c.text}`: dev {c.value(dev_rows):+.3g}, test {c.value(test_rows):+.3g} "
              f"({len(c.selected(test_rows))} test rows)" for c in p.constraints]
     files = write_report(s.out_dir, table, header, lines)
