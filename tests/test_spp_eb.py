@@ -72,14 +72,17 @@ def _diffuse_pair(n, rng, *, gain_db, phase_deg):
     return np.fft.irfft(np.stack([x1, x2]), N)[:, :n]
 
 
+@pytest.mark.parametrize("spp", ["multi", "mean"])
 @pytest.mark.parametrize("seed", [1, 4])
-def test_calibration_finds_the_rear_mics_mismatch_in_diffuse_noise(seed):
+def test_calibration_finds_the_rear_mics_mismatch_in_diffuse_noise(seed, spp):
     """24 s of diffuse noise (six calibration time constants: the prior's weight is e^-6), no talker, rear mic
     2 dB / 15 deg off: the estimate at the end over 300 Hz-3 kHz; no calibration would be 2 dB / 15 deg off
-    everywhere.  With the multichannel SPP, whose weights scale both mics' noise alike (the single-channel
-    SPP weights by the front mic's power alone and biases the gain: module docstring)."""
+    everywhere.  With the SPPs whose weights scale both mics' noise alike, the multichannel one and the
+    tracker on the pair's mean periodogram (the reference-mic SPP weights by the front mic's power alone
+    and biases the gain by 0.1-0.16 dB, worst bin 0.42 dB: module docstring); measured worst / median gain
+    error 0.14 / 0.04 dB (multi), 0.18 / 0.09 dB (mean)."""
     x = _diffuse_pair(24 * FS, np.random.default_rng(seed), gain_db=2.0, phase_deg=15.0)
-    res = enhancers.make("eb-spp", spp="multi").process(x, FS)
+    res = enhancers.make("eb-spp", spp=spp).process(x, FS)
     f = np.arange(129) * FS / 256
     band = (f >= 300) & (f <= 3000)
     gain = np.abs(res.trace["rear_gain_db"][-1, band] - 2.0)

@@ -4,8 +4,9 @@ The robust EB's three adaptive quantities -- the rear mic's response, beta and t
 weight -- each answer one question about the noise: its cross-spectrum between the mics. Here all
 three are read from one noise covariance per bin, ``Phi_vv[l, k]`` (2 x 2), which
 :mod:`enhancers.beam.noise_stats` averages with the weight ``1 - p`` of the speech presence
-probability ``p`` (Gerkmann & Hendriks 2012's single-channel SPP on the front mic by default; Souden et
-al. 2010's multichannel SPP with ``spp="multi"``). A cell the talker dominates (``p -> 1``) leaves the
+probability ``p`` (Gerkmann & Hendriks 2012's SPP on the pair's mean periodogram by default, whose weights
+scale both mics' noise alike; on the front mic alone with ``spp="single"``; Souden et al. 2010's
+multichannel SPP with ``spp="multi"``). A cell the talker dominates (``p -> 1``) leaves the
 average where it was, so no separate freeze rule decides when to learn; this is Elko's NLMS with a step
 weighted by ``1 - p``, solved in closed form at every frame.
 
@@ -47,11 +48,11 @@ Per frame ``l`` and bin ``k`` (``e = exp(-j w_k T)``, ``T`` the inter-mic delay 
 The output is ``Y = w^T X`` with ``w (2,)`` per frame and bin: a linear operation once ``w`` is
 recorded, so ``Result.replay`` is exact. Before any noise is seen ``beta = 0`` (cardioid),
 ``alpha = 1/2`` and ``r_hat = 1``. The frame loop of the statistics runs compiled
-(:mod:`enhancers.kernels.noise_stats`) for the single-channel SPP.
+(:mod:`enhancers.kernels.noise_stats`) for the single-channel tracker (``"mean"``, ``"single"``).
 
 Parameters (``SppElkoBeamformer.Params``; the geometry and filter-bank fields of
-:class:`enhancers.core.stft_stage.StftParams` besides), eight: ``spp`` ("single"; Gerkmann & Hendriks
-2012), ``tau_noise_s`` (0.5 s, the noise average; Souden et al. 2011 use 0.92 per 8 ms frame ~ 0.1 s,
+:class:`enhancers.core.stft_stage.StftParams` besides), eight: ``spp`` ("mean"; Gerkmann & Hendriks
+2012 on the pair's mean periodogram, :mod:`enhancers.beam.noise_stats`), ``tau_noise_s`` (0.5 s, the noise average; Souden et al. 2011 use 0.92 per 8 ms frame ~ 0.1 s,
 longer here because beta only needs the noise's spatial shape), ``tau_cal_s`` (4 s), ``prior_absence``
 (0.5, the multichannel SPP's ``q``; Gerkmann & Hendriks' fixed prior), ``fit_band_hz`` ((500, 4000)
 Hz), ``smooth_frac`` (0.06), ``max_gain_db`` (6), ``max_phase_deg`` (30), the last four those of
@@ -187,12 +188,12 @@ class SppElkoBeamformer(StftEnhancer):
     """
 
     name: ClassVar[str] = "eb-spp"
-    version: ClassVar[str] = "2"
+    version: ClassVar[str] = "3"
     summary: ClassVar[str] = "EB with calibration, beta and DAS weight from an SPP-weighted noise covariance"
 
     @dataclass(frozen=True)
     class Params(StftParams):
-        spp: str = "single"
+        spp: str = "mean"
         tau_noise_s: float = 0.5
         tau_cal_s: float = 4.0
         prior_absence: float = 0.5
@@ -321,6 +322,6 @@ class EbSppSs(Chain):
     """``eb-spp`` followed by ``ss`` (the thesis' cascade with this front end)."""
 
     name = "eb-spp-ss"
-    version = "2"
+    version = "3"
     summary = "eb-spp followed by spectral subtraction (Martin 1994)"
     stages = (("eb", "eb-spp"), ("ss", "ss"))
