@@ -41,6 +41,7 @@ from benchmarks.metrics.row_measures import (
     attribution_columns,
     distortion_columns,
     g160_columns,
+    split_columns,
 )
 from scenesim.errors import ParameterError
 
@@ -468,7 +469,7 @@ def _snr_columns(row, enhancer, rendered, result, signals, parts, refs, fs, late
     p_y = float(np.mean((s_al + n_al) ** 2))
     cross = 2.0 * float(np.mean(s_al * n_al)) / max(p_y, M.POWER_FLOOR)
     row["snr_cross_ratio"] = cross
-    _new_measures(row, errors, rendered, result2, (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
+    _new_measures(row, errors, rendered, (result, result2), (s, n, s_out, n_out), (s_al, n_al, y_al), fs, latency)
     if abs(cross) > CROSS_WARN_RATIO:
         warnings.warn(
             f"{row['enhancer']}: speech and noise outputs ({row['snr_method']}) are "
@@ -511,14 +512,16 @@ def _quality_columns(row, rendered, ref, aligned, fs, latency, errors) -> None:
     row["si_sdr_i_db"] = _delta(row["si_sdr_out_db"], row["si_sdr_in_db"])
 
 
-def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -> None:
+def _new_measures(row, errors, rendered, results, parts, aligned, fs, latency) -> None:
     """Distortion, G.160 and attribution columns (:mod:`benchmarks.metrics.row_measures`), each on its own.
 
-    ``result2``: the Hagerman run's Result (W2; None for black boxes); ``parts = (s, n, s_out,
+    ``results = (result, result2)``: the row's Result and the Hagerman run's (W2; None for
+    black boxes); ``parts = (s, n, s_out,
     n_out)``: speech and noise as the enhancer took them and the output's full speech and
     noise parts; ``aligned = (s_al, n_al, y_al)``.
     """
     s, n, s_out, n_out = parts
+    result, result2 = results
     s_al, n_al, y_al = aligned
     m = s_al.size
     s0 = np.asarray(rendered.speech_image, dtype=np.float64)[0][:m]
@@ -532,3 +535,5 @@ def _new_measures(row, errors, rendered, result2, parts, aligned, fs, latency) -
     self_noise = getattr(rendered, "self_noise_image", None)
     self0 = None if self_noise is None else np.asarray(self_noise, dtype=np.float64)[0][:m]
     row.update(_try(errors, "attribution", attribution_columns, s0, n0, s_al, n_al, fs, snr_i_db=row["snr_i_db"], self_noise=self0) or {})
+    white = result if row["snr_method"] == "replay" else None
+    row.update(_try(errors, "attribution split", split_columns, white, s, n, (s_al, n_al), fs, latency=latency, snr_i_db=row["snr_i_db"]) or {})

@@ -12,6 +12,11 @@ Three groups, each computed by one function so a failure in one leaves the other
   system, with P.56 activity; ``g160_*_exact_db`` from the replayed parts where replayable.
 * :func:`attribution_columns` -- ``snr_i_spectral_db``, ``snr_i_spatial_db`` and the per-octave
   SNR-I as JSON in ``snr_i_octave_json`` (:mod:`benchmarks.metrics.attribution`).
+* :func:`split_columns` -- ``snr_i_fixed_spectral_db`` (1/3-octave rule, every system) and
+  ``snr_i_fixed_spatial_db``, ``snr_i_time_varying_db`` from the output replayed on each input
+  channel alone (:mod:`benchmarks.metrics.attribution_split`).  For black boxes
+  (``snr_method`` = ``'phase-inversion'``) the last two stay empty: no channel's own response
+  can be measured.
 
 Every signal handed in is 1-D, latency-aligned and as long as the row's aligned reference.
 """
@@ -25,6 +30,7 @@ import numpy as np
 
 from benchmarks.metrics import speech as M
 from benchmarks.metrics.attribution import octave_snr_i, snr_i_spectral_db
+from benchmarks.metrics.attribution_split import SPLIT_COLUMNS, fixed_spectral_snr_i_db, snr_i_split
 from benchmarks.metrics.distortion import hagerman_leak_db, speech_jitter_db
 from benchmarks.metrics.g160 import (
     G160_COLUMNS,
@@ -34,7 +40,7 @@ from benchmarks.metrics.g160 import (
     g160_measures_blackbox,
 )
 
-__all__ = ["MEASURE_COLUMNS", "attribution_columns", "distortion_columns", "g160_columns"]
+__all__ = ["MEASURE_COLUMNS", "attribution_columns", "distortion_columns", "g160_columns", "split_columns"]
 
 #: Result columns added by this module (SQL types for the store).
 MEASURE_COLUMNS: dict[str, str] = {
@@ -49,6 +55,7 @@ MEASURE_COLUMNS: dict[str, str] = {
     "snr_i_spectral_db": "REAL",
     "snr_i_spatial_db": "REAL",
     "snr_i_octave_json": "TEXT",
+    **dict.fromkeys(SPLIT_COLUMNS, "REAL"),
 }
 
 
@@ -99,3 +106,27 @@ def attribution_columns(s_in, n_in, s_out, n_out, fs: int, *, snr_i_db, self_noi
         "snr_i_spatial_db": None if snr_i_db is None else float(snr_i_db) - spectral,
         "snr_i_octave_json": json.dumps(octave, separators=(",", ":")),
     }
+
+
+def split_columns(result, s, n, aligned, fs: int, *, latency: int, snr_i_db) -> dict[str, Any]:
+    """:data:`~benchmarks.metrics.attribution_split.SPLIT_COLUMNS` of a row.
+
+    ``result``: the row's Result, None for a black box (then only ``snr_i_fixed_spectral_db``,
+    from the estimated parts ``aligned``); ``s, n``: speech and noise ``(channels, samples)`` as the
+    enhancer took them; ``aligned = (s_al, n_al)``: the first output channel's replayed
+    speech and noise, latency-aligned, length ``m``.  Channel ``c < C - 1`` is replayed alone;
+    the last channel's part is the rest of ``s_al`` (replay is linear), so ``C - 1`` extra
+    replays of each component.
+    """
+    s_al, n_al = aligned
+    m = s_al.size
+    if result is None or snr_i_db is None:
+        return {SPLIT_COLUMNS[0]: fixed_spectral_snr_i_db(s[0, :m], n[0, :m], s_al, n_al, fs)}
+    s_parts, n_parts = np.zeros((s.shape[0], m)), np.zeros((s.shape[0], m))
+    for c in range(s.shape[0] - 1):
+        for comp, parts in ((s, s_parts), (n, n_parts)):
+            alone = np.zeros_like(comp)
+            alone[c] = comp[c]
+            parts[c] = np.asarray(result.replay(alone), dtype=np.float64)[0, latency : latency + m]
+    s_parts[-1], n_parts[-1] = s_al - s_parts[:-1].sum(axis=0), n_al - n_parts[:-1].sum(axis=0)
+    return snr_i_split(s[:, :m], n[:, :m], s_parts, n_parts, fs, snr_i_db=snr_i_db)
