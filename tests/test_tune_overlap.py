@@ -132,6 +132,22 @@ def test_test_split_rows_on_other_seeds_get_no_banner(tmp_path, tuned):
     assert (rec["system"], rec["rows"], rec["in_sample_rows"]) == (SYSTEM, "2", "0")
 
 
+def test_the_listening_page_rebuilds_a_parameter_set_system(tmp_path, tuned):
+    """The report's re-render builds a ``[parameter_sets]`` system from its base enhancer and the set's
+    parameters (its sweep name is not registered): the same spec as stored, so it is played."""
+    from benchmarks.report import listening
+    from benchmarks.store.frame import load_results
+    from benchmarks.store.sqlite import ResultStore
+
+    out = _run(tmp_path, tuned, split="test", seeds="[1]")
+    with ResultStore(out / "results.sqlite", readonly=True) as store:
+        params, bases = listening._sweep_params(store.runs())
+    assert bases == {SYSTEM: "toy-peak"}
+    rows = {r["enhancer"]: r for r in load_results(out, ok_only=True).to_dict("records")}
+    signals, _, notes = listening.render_condition(rows, data_dir=None, params=params, bases=bases)
+    assert SYSTEM in signals and not [n for n in notes if SYSTEM in n], notes
+
+
 def test_an_old_store_without_provenance_loads_and_reports_without_the_banner(tmp_path, tuned):
     """The same rows as written before runs recorded provenance and rows their files."""
     out = _run(tmp_path, tuned, split="dev", seeds="[0, 1]")

@@ -165,19 +165,23 @@ def _data_env(data_dir: str | None):
             os.environ["SCENESIM_DATA"] = saved
 
 
-def _sweep_params(runs: Sequence[Mapping[str, Any]]) -> dict[str, dict]:
-    """Enhancer params per sweep name, from the recorded sweeps (later runs win)."""
+def _sweep_params(runs: Sequence[Mapping[str, Any]]) -> tuple[dict[str, dict], dict[str, str]]:
+    """``(params, bases)`` per sweep name, from the recorded sweeps (later runs win): the enhancer
+    params, and for a ``[parameter_sets]`` system the registered enhancer that builds it."""
     from benchmarks.run.sweep import parse_sweep
 
     params: dict[str, dict] = {}
+    bases: dict[str, str] = {}
     for run in runs:
         try:
             sweep = parse_sweep(run.get("config_toml") or "", source=str(run.get("source")))
-        except Exception:  # an unreadable old config: the spec check below will say so
+        except Exception:  # an unreadable old config (or a moved parameter set): the spec check says so
             continue
         for name in sweep.enhancers:
             params[name] = dict(sweep.enhancer_params.get(name, {}))
-    return params
+            if sweep.registered_name(name) != name:
+                bases[name] = sweep.registered_name(name)
+    return params, bases
 
 
 def _same_spec(stored: str | None, built: Mapping[str, Any]) -> bool:
@@ -188,11 +192,13 @@ def _same_spec(stored: str | None, built: Mapping[str, Any]) -> bool:
 
 
 def render_condition(
-    rows: Mapping[str, Mapping[str, Any]], *, data_dir: str | None, params: Mapping[str, dict]
+    rows: Mapping[str, Mapping[str, Any]], *, data_dir: str | None, params: Mapping[str, dict],
+    bases: Mapping[str, str] | None = None,
 ) -> tuple[dict[str, np.ndarray], int, list[str]]:
     """Re-render one condition; ``({label: mono signal}, fs, notes)``.
 
-    ``rows`` maps enhancer name to its stored row (same condition).  Labels are
+    ``rows`` maps enhancer name to its stored row (same condition); ``bases`` the registered
+    enhancer of a ``[parameter_sets]`` system (its sweep name is not registered).  Labels are
     ``"reference"``, ``"mixture"`` and the enhancer names that could be reproduced;
     ``notes`` says what could not (a changed data source or enhancer spec).
     """
@@ -221,7 +227,7 @@ def render_condition(
         "mixture": np.asarray(rendered.mixture, dtype=np.float64)[0],
     }
     for name, row in rows.items():
-        spec = EnhancerSpec(name, json.dumps(params.get(name, {}), sort_keys=True))
+        spec = EnhancerSpec(name, json.dumps(params.get(name, {}), sort_keys=True), (bases or {}).get(name, ""))
         try:
             enhancer = build_enhancer(spec, cond)
             if not _same_spec(row.get("enhancer_spec"), enhancer.spec):
@@ -242,7 +248,8 @@ LISTEN_CACHE_VERSION = 1
 
 
 def render_condition_cached(
-    rows: Mapping[str, Mapping[str, Any]], *, data_dir: str | None, params: Mapping[str, dict]
+    rows: Mapping[str, Mapping[str, Any]], *, data_dir: str | None, params: Mapping[str, dict],
+    bases: Mapping[str, str] | None = None,
 ) -> tuple[dict[str, np.ndarray], int, list[str]]:
     """:func:`render_condition` memoised (:func:`scenesim.memo.cached_array`, on disk in
     ``$SCENESIM_CACHE``): a report written again re-renders nothing.  Only fully reproduced
@@ -257,7 +264,8 @@ def render_condition_cached(
     from benchmarks.run.sweep import Condition
 
     fs = int(Condition.from_json(first["condition_json"]).fs)
-    key = array_key("listening-signals", LISTEN_CACHE_VERSION, data_dir=data_dir, params=dict(params),
+    extra = {"bases": dict(bases)} if bases else {}  # keys of caches without tuned systems unchanged
+    key = array_key("listening-signals", LISTEN_CACHE_VERSION, data_dir=data_dir, params=dict(params), **extra,
                     scenesim=scenesim.__version__, ism=getattr(ism, "ALGORITHM_VERSION", None),
                     rows={name: [r.get("condition_json"), r.get("enhancer_spec"), r.get("speech_source"),
                                  r.get("noise_source")] for name, r in rows.items()})
@@ -265,7 +273,7 @@ def render_condition_cached(
     fresh: list = []
 
     def compute() -> np.ndarray:
-        signals, fs_out, notes = render_condition(rows, data_dir=data_dir, params=params)
+        signals, fs_out, notes = render_condition(rows, data_dir=data_dir, params=params, bases=bases)
         fresh.append((signals, fs_out, notes))
         if notes or list(signals) != labels:
             return np.zeros((0, 0))  # not kept: an empty marker, recomputed next time
@@ -275,7 +283,7 @@ def render_condition_cached(
     if fresh:
         return fresh[0]
     if stacked.shape[0] != len(labels):  # an incomplete condition: render again
-        return render_condition(rows, data_dir=data_dir, params=params)
+        return render_condition(rows, data_dir=data_dir, params=params, bases=bases)
     return dict(zip(labels, stacked)), fs, []
 
 
@@ -378,7 +386,7 @@ def build_listening(
     with ResultStore(store_path, readonly=True) as store:
         runs = store.runs()
     data_dir = runs[-1].get("data_dir") if runs else None
-    params = _sweep_params(runs)
+    params, bases = _sweep_params(runs)
     by_cond: dict[str, dict[str, Mapping[str, Any]]] = {}
     for r in rows:
         if r.get("status") == "ok" and r.get("condition_json"):
@@ -394,7 +402,8 @@ def build_listening(
         label = _label(next(iter(crow.values())))
         saved = load_clips(store_dir, crow)  # saved by the sweep: nothing to re-render
         try:
-            signals, fs, notes = (*saved, []) if saved else render_condition_cached(crow, data_dir=data_dir, params=params)
+            signals, fs, notes = (*saved, []) if saved else render_condition_cached(crow, data_dir=data_dir, params=params,
+                                                                                   bases=bases)
             n_saved += saved is not None
         except Exception as exc:
             out.append(ListenCondition(cid, label, rows=crow, notes=(f"{type(exc).__name__}: {exc}",)))
