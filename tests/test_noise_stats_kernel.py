@@ -49,3 +49,20 @@ def test_covariance_kernel_equals_the_numpy_reference_in_one_call_and_in_blocks(
         parts.append(out)
     for name in ("yy", "vv", "p", "n_vv"):
         _close(np.concatenate([getattr(p, name) for p in parts]), getattr(ref, name))
+
+
+@pytest.mark.parametrize("spp", ["single", "mean"])
+def test_skipping_the_noisy_average_leaves_the_noise_statistics_unchanged(spp):
+    """``noisy=False`` (a caller that reads only the noise covariance): the same ``vv``, ``p``, ``n_vv`` as
+    the reference, in blocks too; no ``yy`` frames, and the noisy average's state untouched."""
+    X = _frames(2)
+    c = NoiseStatsConfig(spp=spp)
+    ref, _ = noise_stats_step(X, noise_stats_init(X.shape[2]), c)
+    state, parts = noise_stats_init(X.shape[2]), []
+    for lo, hi in ((0, 97), (97, 600)):
+        out, state = noise_stats_step(X[:, lo:hi], state, c, kernel=True, noisy=False)
+        parts.append(out)
+        assert out.yy.shape[0] == 0
+    for name in ("vv", "p", "n_vv"):
+        _close(np.concatenate([getattr(p, name) for p in parts]), getattr(ref, name))
+    assert not np.any(state.r_yy) and not np.any(state.n_yy)

@@ -286,12 +286,14 @@ def _average(r, n, a, yy):
 
 
 def noise_stats_step(X: np.ndarray, state: NoiseStatsState, config: NoiseStatsConfig, *,
-                     kernel: bool = False) -> tuple[NoiseStats, NoiseStatsState]:
+                     kernel: bool = False, noisy: bool = True) -> tuple[NoiseStats, NoiseStatsState]:
     """Covariances and SPP of the frames ``X`` (``(2, n_frames, n_bins)`` complex, reference mic first).
 
     ``kernel``: with ``spp="single"`` or ``"mean"``, the compiled copies of the frame loops
     (:mod:`enhancers.kernels.noise_stats`, equal to this numpy reference to rounding); the
-    multichannel SPP always runs here.
+    multichannel SPP always runs here.  ``noisy=False`` (compiled single-channel path only): a caller
+    that never reads the noisy covariance skips it -- ``NoiseStats.yy`` then has no frames and the
+    state's noisy average stays where it was.
 
     >>> import numpy as np
     >>> rng = np.random.default_rng(0)
@@ -309,7 +311,7 @@ def noise_stats_step(X: np.ndarray, state: NoiseStatsState, config: NoiseStatsCo
     if config.spp in _SINGLE_CHANNEL:
         P_all, _, s_state = spp_step(spp_periodogram(Y, config.spp), state.spp, sc, kernel=kernel)
         if kernel:
-            return _single_compiled(Y, P_all, state, s_state, config)
+            return _single_compiled(Y, P_all, state, s_state, config, noisy)
     a_p = sc.alphas()[1]
     yy_out = np.empty((F, K, 2, 2), dtype=complex)
     vv_out = np.empty((F, K, 2, 2), dtype=complex)
@@ -334,12 +336,12 @@ def noise_stats_step(X: np.ndarray, state: NoiseStatsState, config: NoiseStatsCo
     return NoiseStats(yy=yy_out, vv=vv_out, p=p_out, n_vv=nv_out), new
 
 
-def _single_compiled(Y, P_all, state, s_state, config):
+def _single_compiled(Y, P_all, state, s_state, config, noisy=True):
     """:func:`noise_stats_step`'s averages for a given SPP by the compiled loop (state arrays copied)."""
     a_y, a_v = config.alphas()
     r_yy, n_yy, r_vv, n_vv = (np.array(a, dtype=c) for a, c in ((state.r_yy, complex), (state.n_yy, float),
                                                                (state.r_vv, complex), (state.n_vv, float)))
     yy, vv, nv = weighted_cov_frames(np.ascontiguousarray(Y), np.ascontiguousarray(P_all), r_yy, n_yy, r_vv, n_vv,
-                                 a_y, a_v)
+                                 a_y, a_v, noisy)
     new = NoiseStatsState(r_yy=r_yy, n_yy=n_yy, r_vv=r_vv, n_vv=n_vv, spp=s_state, p_bar=state.p_bar)
     return NoiseStats(yy=yy, vv=vv, p=P_all, n_vv=nv), new

@@ -47,8 +47,15 @@ Per frame ``l`` and bin ``k`` (``e = exp(-j w_k T)``, ``T`` the inter-mic delay 
 
 The output is ``Y = w^T X`` with ``w (2,)`` per frame and bin: a linear operation once ``w`` is
 recorded, so ``Result.replay`` is exact. Before any noise is seen ``beta = 0`` (cardioid),
-``alpha = 1/2`` and ``r_hat = 1``. The frame loop of the statistics runs compiled
-(:mod:`enhancers.kernels.noise_stats`) for the single-channel tracker (``"mean"``, ``"single"``).
+``alpha = 1/2`` and ``r_hat = 1``.
+
+Cost. The frame loop of the statistics (:mod:`enhancers.kernels.noise_stats`, for the single-channel
+tracker ``"mean"`` / ``"single"``) and steps 0-4 (:mod:`enhancers.kernels.spp_eb`) run compiled; the numpy
+code here stays the reference (``compiled = False``; equal to rounding, ``tests/test_spp_eb_kernel.py``).
+Batch CPU time 1.63-1.76x ``eb-robust@1``'s (RTF 0.0040-0.0042 against 0.0024-0.0025), streaming RTF
+0.011 (``python -m benchmarks.perf.enhancer_rtf --only eb-spp eb-robust@1 --ratio eb-spp eb-robust@1``,
+three runs, AMD EPYC 2 cores at load 0.6).  First call in a new process 0.19 s with numba's on-disk
+cache, 6.1 s when the kernels compile.
 
 Parameters (``SppElkoBeamformer.Params``; the geometry and filter-bank fields of
 :class:`enhancers.core.stft_stage.StftParams` besides), eight: ``spp`` ("mean"; Gerkmann & Hendriks
@@ -58,19 +65,29 @@ longer here because beta only needs the noise's spatial shape), ``tau_cal_s`` (4
 Hz), ``smooth_frac`` (0.06), ``max_gain_db`` (6), ``max_phase_deg`` (30), the last four those of
 :mod:`enhancers.beam.mic_calibration`'s default.
 
-Accuracy. In 24 s of simulated diffuse noise with a rear mic 2 dB / 15 deg off, the multichannel SPP's
-estimate over 300 Hz-3 kHz is within 0.4 dB / 6 deg in every bin (``tests/test_spp_eb.py``); with the
-single-channel SPP the gain is biased by 0.1-0.16 dB (median bin; worst 0.42 dB), because its weights
-follow the front mic's power alone (the front mic's noise power is read 1 dB low,
-:mod:`enhancers.beam.noise_stats`). On ``phone``'s test split (built-in data, seeds 0-9, 120 rows at
-15-25 dB input; ``python -m benchmarks.studies.heldout_targets --split test --seeds 10``):
-speech jitter <= -30 dB in 52 % of the rows, median -30.3 dB, worst -15.2 dB (``eb-robust@1``: 2 %,
--16.6, -3.9); replay and Hagerman SNR-I within 3 dB in 98 % (52 %); SNR-I minus ``eb-robust@1``'s per
-noise +0.37 (babble), +0.27 (factory), +1.63 (factory-hall), +0.11 dB (wind), lower 95 % bounds -0.37
-dB or more; raw PESQ +0.10 ... +0.11 except wind (-0.01). With a rear mic 1 dB / 5 deg off the SNR-I
-loss is 0.03-0.36 dB (135 / 240 deg, diffuse babble; ``benchmarks.studies.robust_eb``'s scenes), but
-a single rear plane wave is reduced ~12 dB less than by ``eb-robust@1`` (16.4 vs 28.6 dB SNR-I at
-135 deg; the cause is not yet measured).
+Accuracy. In 24 s of simulated diffuse noise with a rear mic 2 dB / 15 deg off, the estimate over
+300 Hz-3 kHz is within 0.18 dB / 2.1 deg in every bin (median 0.05-0.09 dB) with the default SPP; the
+multichannel SPP's within 0.14 dB; the front-mic SPP (``spp="single"``) biases the gain by 0.1-0.16 dB
+(median bin; worst 0.42 dB), its weights following the front mic's power alone
+(``tests/test_spp_eb.py``). Held out -- ``phone`` at 15-25 dB input, test split, seeds 0-9, 120 rows
+(``python -m benchmarks.studies.heldout_targets --split test --seeds 10 [--data-dir DIR]``):
+
+* built-in data: speech jitter <= -30 dB in 57 % of the rows, median -31.0 dB, worst -16.0 dB
+  (``eb-robust@1``: 2 %, -16.6, -3.9); replay and Hagerman SNR-I within 3 dB in 98 % (52 %); SNR-I minus
+  ``eb-robust@1``'s per noise (mean, lower 95 % bound) +0.38 (+0.11) babble, +0.28 (-0.27) factory,
+  +1.58 (+1.19) factory-hall, +0.48 (-0.01) wind; raw PESQ +0.10 ... +0.11 except wind (-0.01);
+* ``/work/shared/data``'s test half (other talkers, the recordings' test segments): jitter <= -30 dB in
+  48 %, worst -15.0 dB, agreement 99 %; SNR-I minus ``eb-robust@1``'s -0.11 (-0.38) babble, -0.82
+  (-1.34) factory, +1.42 (+1.06) factory-hall, +0.29 (-0.16) wind.
+
+Why the talker's path still moves: steps 2-4 keep the look response constant for a talker on the
+axis only.  ``phone``'s talker is 45 deg off it, so it reaches the backward cardioid and the two paths
+of step 4 with different responses, and every change of alpha, ``r_hat`` or beta between Hagerman's
+two runs moves it (``python -m benchmarks.studies.jitter_sources``: alpha alone -21.8 ... -43.5 dB,
+``r_hat`` alone -32.4 ... -38.5, beta alone -26.9 ... -56.9, below 1 kHz, where the equaliser's gain
+is large).  With a rear mic 1 dB / 5 deg off the SNR-I loss is 0.04-0.60 dB (135 / 240 deg, diffuse
+babble; ``benchmarks.studies.robust_eb``'s scenes), but a single rear plane wave is reduced ~12 dB less
+than by ``eb-robust@1`` (16.4 vs 28.6 dB SNR-I at 135 deg).
 
 References
 ----------
@@ -218,6 +235,8 @@ class SppElkoBeamformer(StftEnhancer):
 
     # fixed parts of the method (module docstring): not parameters
     EQ = {"max_gain_db": 25.0, "noise_gain_db": 9.0, "highpass_hz": 80.0}
+    #: run steps 0-4's per-frame closed forms compiled (:mod:`enhancers.kernels.spp_eb`); False: numpy reference
+    compiled: ClassVar[bool] = True
 
     def _constants(self, fs: int):
         """``(e, G, look, band, max_slope)`` at rate ``fs`` (cached: params are frozen)."""
@@ -251,30 +270,76 @@ class SppElkoBeamformer(StftEnhancer):
     def _frames(self, X, algo, fs):
         p = self.params
         stats_state, held, cal_prev, missing = algo
-        e, G, look, band, max_slope = self._constants(fs)
+        _, _, _, band, max_slope = self._constants(fs)
         prev = stats_state.r_vv / np.maximum(stats_state.n_vv, TINY)[:, None, None]
         stats_state_n = stats_state.n_vv
-        stats, stats_state = noise_stats_step(X, stats_state, p.stats_config(fs), kernel=True)
-        Phi = np.concatenate([prev[None], stats.vv[:-1]]) if X.shape[1] else stats.vv  # frames before each
-        N = np.concatenate([stats_state_n[None], stats.n_vv[:-1]]) if X.shape[1] else stats.n_vv
-        Phi = self._with_prior(Phi, N, fs)
-        avg = np.stack([Phi[..., 0, 0], Phi[..., 1, 1], Phi[..., 1, 0]], axis=1)  # (F, 3, K)
-        cal, cal_prev, missing = self._calibration_average(avg, cal_prev, missing, fs)
-        r_hat = estimate_from_averages(cal, band=band, max_slope=max_slope, smooth_bins=1,
-                                       smooth_frac=float(p.smooth_frac), max_gain_db=float(p.max_gain_db),
-                                       max_phase_deg=float(p.max_phase_deg), min_coherence=MIN_COHERENCE,
-                                       prev_phase=held)
-        inv = 1.0 / r_hat
+        stats, stats_state = noise_stats_step(X, stats_state, p.stats_config(fs), kernel=True, noisy=False)
+        before = (prev, stats.vv, stats_state_n, stats.n_vv)  # row l's weights come from the frames before l
+        if self.compiled and X.shape[1] and p.tau_cal_s > 0:
+            cal, cal_prev, missing = self._compiled_calibration(before, cal_prev, missing, fs)
+            r_hat = self._rear_response(cal, held, band, max_slope)
+            Y, w_raw, beta, alpha = self._compiled_weights(before, 1.0 / r_hat, X, fs)
+        else:
+            Phi = np.concatenate([prev[None], stats.vv[:-1]]) if X.shape[1] else stats.vv
+            N = np.concatenate([stats_state_n[None], stats.n_vv[:-1]]) if X.shape[1] else stats.n_vv
+            Phi = self._with_prior(Phi, N, fs)
+            avg = np.stack([Phi[..., 0, 0], Phi[..., 1, 1], Phi[..., 1, 0]], axis=1)  # (F, 3, K)
+            cal, cal_prev, missing = self._calibration_average(avg, cal_prev, missing, fs)
+            r_hat = self._rear_response(cal, held, band, max_slope)
+            Y, w_raw, beta, alpha = self._weights(Phi, 1.0 / r_hat, X, fs)
+        held = np.angle(r_hat[-1]) if X.shape[1] else held
+        record = {"w": w_raw, "beta": beta, "alpha": alpha, "r_hat": r_hat, "spp": stats.p}
+        return Y[None], (stats_state, held, cal_prev, missing), record
+
+    def _compiled_calibration(self, before, cal_prev, missing, fs):
+        """Steps 0-1's averages by :func:`enhancers.kernels.spp_eb.prior_and_calibration`: ``(cal (F, 3, K),
+        last average, unfilled mass)`` (``_with_prior`` and ``_calibration_average`` are the reference)."""
+        from enhancers.kernels.spp_eb import prior_and_calibration  # lazy: numba
+
+        lam = math.exp(-int(self.params.hop) / fs / float(self.params.tau_cal_s))
+        return prior_and_calibration(*self._contiguous(before), self._coherence(fs), lam,
+                                     np.asarray(cal_prev, dtype=complex), float(missing))
+
+    def _compiled_weights(self, before, inv, X, fs):
+        """Steps 2-4 by :func:`enhancers.kernels.spp_eb.closed_form_frames` (``_weights`` is the reference)."""
+        from enhancers.kernels.spp_eb import closed_form_frames  # lazy: numba
+
+        e, G, look, _, _ = self._constants(fs)
+        return closed_form_frames(*self._contiguous(before), self._coherence(fs), np.ascontiguousarray(inv), e,
+                                  G.astype(complex), look, np.ascontiguousarray(X), _BETA0, _ALPHA0)
+
+    @staticmethod
+    def _contiguous(arrays):
+        return tuple(np.ascontiguousarray(a) for a in arrays)
+
+    def _rear_response(self, cal, held, band, max_slope):
+        """``r_hat (F, K)`` from the calibration averages ``cal (F, 3, K)`` (step 1):
+        :func:`enhancers.beam.mic_calibration.estimate_from_averages`, or its compiled copy
+        (:func:`enhancers.kernels.spp_eb.estimate_frames`)."""
+        p = self.params
+        if self.compiled and cal.shape[0]:
+            from enhancers.kernels.spp_eb import estimate_frames  # lazy: numba
+
+            half = np.maximum(1, np.round(float(p.smooth_frac) * np.arange(cal.shape[2])).astype(np.int64))
+            return estimate_frames(np.ascontiguousarray(cal), band.start, band.stop, max_slope, half,
+                                   float(p.max_gain_db), math.radians(float(p.max_phase_deg)), MIN_COHERENCE,
+                                   np.asarray(held, dtype=float), 1.0)
+        return estimate_from_averages(cal, band=band, max_slope=max_slope, smooth_bins=1,
+                                      smooth_frac=float(p.smooth_frac), max_gain_db=float(p.max_gain_db),
+                                      max_phase_deg=float(p.max_phase_deg), min_coherence=MIN_COHERENCE,
+                                      prev_phase=held)
+
+    def _weights(self, Phi, inv, X, fs):
+        """``(Y (F, K), w (F, K, 2) on the uncalibrated spectra, beta, alpha)`` for the noise covariance
+        ``Phi (F, K, 2, 2)`` and the rear mic's inverse response ``inv (F, K)``: steps 2-4 (numpy)."""
+        e, G, look, _, _ = self._constants(fs)
         Phi_c = Phi.copy()
         Phi_c[..., 0, 1] *= np.conj(inv)
         Phi_c[..., 1, 0] *= inv
         Phi_c[..., 1, 1] *= np.abs(inv) ** 2
         beta, alpha, w = closed_form_weights(Phi_c, e, G, look)
         w_raw = np.stack([w[..., 0], w[..., 1] * inv], axis=-1)  # on the uncalibrated spectra
-        Y = w_raw[..., 0] * X[0] + w_raw[..., 1] * X[1]
-        held = np.angle(r_hat[-1]) if X.shape[1] else held
-        record = {"w": w_raw, "beta": beta, "alpha": alpha, "r_hat": r_hat, "spp": stats.p}
-        return Y[None], (stats_state, held, cal_prev, missing), record
+        return w_raw[..., 0] * X[0] + w_raw[..., 1] * X[1], w_raw, beta, alpha
 
     def _calibration_average(self, avg, prev, missing, fs):
         """The calibration's average of ``avg (F, 3, K)`` (one-pole, ``tau_cal_s``, zero start) with its

@@ -52,27 +52,30 @@ def spp_frames(S, sigma2, p_bar, a_n, a_p, xi, odds, p_cap):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def weighted_cov_frames(Y, P, r_yy, n_yy, r_vv, n_vv, a_y, a_v):  # pragma: no cover - compiled
+def weighted_cov_frames(Y, P, r_yy, n_yy, r_vv, n_vv, a_y, a_v, noisy=True):  # pragma: no cover - compiled
     """Normalised averages ``yy``, ``vv`` ``(F, K, 2, 2)`` of the frame vectors ``Y (F, K, 2)``: the noisy
     one with factor ``a_y``, the noise one with ``a_v + (1 - a_v) P``, and the noise one's normaliser per
-    frame ``nv (F, K)``; the sums ``r_* (K, 2, 2)`` and normalisers ``n_* (K,)`` updated in place."""
+    frame ``nv (F, K)``; the sums ``r_* (K, 2, 2)`` and normalisers ``n_* (K,)`` updated in place.
+    ``noisy=False``: the noisy average is neither updated nor returned (``yy`` has no frames)."""
     F, K = Y.shape[0], Y.shape[1]
-    yy = np.empty((F, K, 2, 2), dtype=np.complex128)
+    yy = np.empty((F if noisy else 0, K, 2, 2), dtype=np.complex128)
     vv = np.empty((F, K, 2, 2), dtype=np.complex128)
     nv = np.empty((F, K))
     for i in range(F):
         for k in range(K):
             a = a_v + (1.0 - a_v) * P[i, k]
-            n_yy[k] = a_y * n_yy[k] + (1.0 - a_y)
             n_vv[k] = a * n_vv[k] + (1.0 - a)
-            iy = 1.0 / max(n_yy[k], TINY)
             iv = 1.0 / max(n_vv[k], TINY)
             nv[i, k] = n_vv[k]
+            if noisy:
+                n_yy[k] = a_y * n_yy[k] + (1.0 - a_y)
+            iy = 1.0 / max(n_yy[k], TINY)
             for u in range(2):
                 for v in range(2):
                     o = Y[i, k, u] * np.conj(Y[i, k, v])
-                    r_yy[k, u, v] = a_y * r_yy[k, u, v] + (1.0 - a_y) * o
                     r_vv[k, u, v] = a * r_vv[k, u, v] + (1.0 - a) * o
-                    yy[i, k, u, v] = r_yy[k, u, v] * iy
                     vv[i, k, u, v] = r_vv[k, u, v] * iv
+                    if noisy:
+                        r_yy[k, u, v] = a_y * r_yy[k, u, v] + (1.0 - a_y) * o
+                        yy[i, k, u, v] = r_yy[k, u, v] * iy
     return yy, vv, nv
