@@ -68,11 +68,12 @@ def test_without_a_calibration_average_both_paths_are_the_reference():
     assert _rel(a.output, b.output) <= 1e-10
 
 
-# -- each kernel against its numpy reference on random inputs (not only the states a recording reaches) --
+# -- each kernel against its numpy reference on random inputs (not only states a recording reaches)
 
 def _random_stats(rng, F=40, K=129):
     """Noise averages of the frames (``prev (K, 2, 2)``, ``vv (F, K, 2, 2)``: Hermitian, positive
-    semi-definite, levels spread over 60 dB) and their normalisers ``n_prev (K,)``, ``nv (F, K)`` in (0, 1)."""
+    semi-definite, levels spread over 60 dB) and their normalisers ``n_prev (K,)``, ``nv (F, K)``
+    in (0, 1)."""
     y = rng.standard_normal((F + 1, K, 2, 3)) + 1j * rng.standard_normal((F + 1, K, 2, 3))
     y *= 10.0 ** rng.uniform(-3.0, 0.0, (F + 1, K, 1, 1))
     cov = np.einsum("fkit,fkjt->fkij", y, np.conj(y))
@@ -81,7 +82,7 @@ def _random_stats(rng, F=40, K=129):
 
 
 def _reference_prior(stats):
-    """``Phi (F, K, 2, 2)`` with the start-up prior, by the numpy reference (frame ``l`` from ``l - 1``)."""
+    """``Phi (F, K, 2, 2)`` with the start-up prior by the numpy reference (frame l from l - 1)."""
     prev, vv, n_prev, nv = stats
     Phi = np.concatenate([prev[None], vv[:-1]])
     N = np.concatenate([n_prev[None], nv[:-1]])
@@ -116,17 +117,19 @@ def test_closed_form_kernel_equals_the_reference_on_random_covariances():
     ref_e = _Reference()
     want = ref_e._weights(_reference_prior(stats), inv, X, FS)
     e, G, look, _, _ = ref_e._constants(FS)
-    got = closed_form_frames(*stats, ref_e._coherence(FS), inv, e, G.astype(complex), look, X, 0.0, 0.5)
+    got = closed_form_frames(*stats, ref_e._coherence(FS), inv, e, G.astype(complex), look, X,
+                             0.0, 0.5)
     for g, w in zip(got[:3], want[:3]):  # Y, w_raw, beta
         np.testing.assert_allclose(g, w, rtol=1e-10, atol=1e-10 * np.max(np.abs(w)))
-    assert 0.0 < np.mean((want[2] > 0) & (want[2] < 1)) < 1.0  # both clipped and interior betas occur
-    np.testing.assert_allclose(got[3], want[3], rtol=0, atol=1e-4)  # alpha: see the module docstring
+    assert 0.0 < np.mean((want[2] > 0) & (want[2] < 1)) < 1.0  # clipped and interior betas occur
+    np.testing.assert_allclose(got[3], want[3], rtol=0, atol=1e-4)  # alpha: module docstring
 
 
 @pytest.mark.parametrize("phase_leak", [1.0, 0.9])
 def test_estimate_kernel_equals_estimate_from_averages_with_clips_and_held_phases(phase_leak):
-    """Random averages whose gains, phases and slopes reach the clips and whose coherence falls below
-    the hold threshold in about a third of the cells (a held phase from ``prev_phase`` and from rows before)."""
+    """Random averages whose gains, phases and slopes reach the clips and whose coherence falls
+    below the hold threshold in about a third of the cells (a phase held from ``prev_phase`` and
+    from rows before)."""
     from enhancers.beam.mic_calibration import estimate_from_averages
     from enhancers.kernels.spp_eb import estimate_frames
 
@@ -136,17 +139,20 @@ def test_estimate_kernel_equals_estimate_from_averages_with_clips_and_held_phase
     s22 = s11 * 10.0 ** rng.uniform(-1.2, 1.2, (F, K))  # +-12 dB: beyond the 6 dB clip
     coh = rng.uniform(0.0, 1.0, (F, K))
     phase = rng.uniform(-1.2, 1.2, (F, K)) + rng.uniform(-0.2, 0.2, (F, 1)) * np.arange(K)
-    avg = np.stack([s11, s22, coh * np.sqrt(s11 * s22) * np.exp(1j * phase)], axis=1).astype(complex)
+    s21 = coh * np.sqrt(s11 * s22) * np.exp(1j * phase)
+    avg = np.stack([s11, s22, s21], axis=1).astype(complex)
     prev = rng.uniform(-0.5, 0.5, K)
-    kw = {"band": slice(8, 65), "max_slope": 0.05, "smooth_frac": 0.06, "max_gain_db": 6.0, "max_phase_deg": 30.0}
-    want = estimate_from_averages(avg, smooth_bins=1, min_coherence=0.3, prev_phase=prev, phase_leak=phase_leak,
-                                  **kw)
+    kw = {"band": slice(8, 65), "max_slope": 0.05, "smooth_frac": 0.06, "max_gain_db": 6.0,
+          "max_phase_deg": 30.0}
+    want = estimate_from_averages(avg, smooth_bins=1, min_coherence=0.3, prev_phase=prev,
+                                  phase_leak=phase_leak, **kw)
     half = np.maximum(1, np.round(kw["smooth_frac"] * np.arange(K)).astype(np.int64))
-    got = estimate_frames(avg, 8, 65, kw["max_slope"], half, 6.0, math.radians(30.0), 0.3, prev, phase_leak)
+    got = estimate_frames(avg, 8, 65, kw["max_slope"], half, 6.0, math.radians(30.0), 0.3, prev,
+                          phase_leak)
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=0)
     gain = np.abs(want)
     assert np.any(np.isclose(gain, 10 ** (6 / 20))) and np.any(np.isclose(gain, 10 ** (-6 / 20)))
     assert np.any(np.isclose(np.abs(np.angle(want)), math.radians(30.0)))
     unheld = estimate_from_averages(avg, smooth_bins=1, **kw)
     held = ~np.isclose(want, unheld, rtol=1e-12, atol=0)
-    assert 0.1 < held.mean() < 0.9 and held[0].any()  # held phases, from prev_phase in the first row too
+    assert 0.1 < held.mean() < 0.9 and held[0].any()  # held, from prev_phase in the first row too
