@@ -59,8 +59,9 @@ cache, 6.1 s when the kernels compile.
 
 Parameters (``SppElkoBeamformer.Params``; the geometry and filter-bank fields of
 :class:`enhancers.core.stft_stage.StftParams` besides), eight: ``spp`` ("mean"; Gerkmann & Hendriks
-2012 on the pair's mean periodogram, :mod:`enhancers.beam.noise_stats`), ``tau_noise_s`` (0.5 s, the noise average; Souden et al. 2011 use 0.92 per 8 ms frame ~ 0.1 s,
-longer here because beta only needs the noise's spatial shape), ``tau_cal_s`` (4 s), ``prior_absence``
+2012 on the pair's mean periodogram, :mod:`enhancers.beam.noise_stats`), ``tau_noise_s`` (0.5 s, the
+noise average; Souden et al. 2011 use 0.92 per 8 ms frame ~ 0.1 s, longer here because beta only needs
+the noise's spatial shape), ``tau_cal_s`` (4 s), ``prior_absence``
 (0.5, the multichannel SPP's ``q``; Gerkmann & Hendriks' fixed prior), ``fit_band_hz`` ((500, 4000)
 Hz), ``smooth_frac`` (0.06), ``max_gain_db`` (6), ``max_phase_deg`` (30), the last four those of
 :mod:`enhancers.beam.mic_calibration`'s default.
