@@ -20,8 +20,8 @@ and through ``scipy.signal.lfilter`` there).  Arrays in, arrays out.  First call
 cached under ``__pycache__`` (``cache=True``): a new process pays 6.1 s to import this module and
 compile its three kernels, 0.48 s with numba's on-disk cache (numba's import included; shared 2-core
 machine at load 1.7, an empty ``NUMBA_CACHE_DIR`` for the first figure).  ``python -m
-benchmarks.perf.enhancer_rtf --ratio eb-spp eb-robust@1``'s first-call figure is the
-noise-statistics kernels' alone.
+benchmarks.perf.enhancer_rtf --ratio eb-spp eb-robust@1`` prints ``eb-spp``'s first ``process`` in a new
+process, ``import enhancers`` included (0.86 s from the cache, load 0.3).
 """
 
 from __future__ import annotations
