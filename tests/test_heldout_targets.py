@@ -34,3 +34,15 @@ def test_paired_bound_is_the_student_t_bound():
     low = d.mean() - 2.2621571628 * d.std(ddof=1) / np.sqrt(10)
     line = [ln for ln in paired_lines(_rows(), ["eb-robust@1", "eb-spp"]) if "eb-spp |" in ln][0]
     assert f"-0.45 ({low:+.2f})" in line and line.endswith("SNR-I >= -1: met |")
+
+
+def test_mvdr_is_held_to_superdirective_at_zero():
+    """An adaptive MVDR 0.05 dB above the fixed design in every condition: the bound is +0.05 > 0 (met);
+    0.05 dB below: -0.05 < 0 (NOT met) -- the 'not by standing still' target of issue 31."""
+    for delta, verdict in ((0.05, "met"), (-0.05, "NOT met")):
+        rows = [dict(enhancer=name, noise="factory", condition_id=f"c{i}", snr_i_db=2.0 + d, snr_i_hagerman_db=2.0,
+                     pesq_nb_out=2.0, speech_jitter_db=-40.0)
+                for i in range(6) for name, d in (("superdirective", 0.0), ("mvdr", delta))]
+        (line,) = [ln for ln in paired_lines(pd.DataFrame(rows), ["superdirective", "mvdr"])
+                   if "| superdirective |" in ln]
+        assert f"{delta:+.2f} ({delta:+.2f})" in line and line.endswith(f"SNR-I >= 0: {verdict} |")
