@@ -96,6 +96,8 @@ def closed_form_frames(prev, vv, n_prev, nv, coh, inv, e, G, look, X, beta0, alp
     alpha = np.empty((F, K))
     for i in range(F):
         for k in range(K):
+            # the prior-filled covariance again (prior_and_calibration made it too): a few flops per cell,
+            # cheaper than writing and re-reading an (F, K, 2, 2) complex array (measured)
             p00, p11, p10, fill = _before(prev, vv, n_prev, nv, i, k)
             p10 = p10 + fill * coh[k]
             q = inv[i, k]
