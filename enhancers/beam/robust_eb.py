@@ -49,7 +49,6 @@ followed by ``ss`` (a :class:`enhancers.core.chain.Chain`, prefixes ``eb`` and `
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -64,6 +63,7 @@ from enhancers.beam.mic_calibration import (
 )
 from enhancers.beam.presets import EB_ROBUST_BLIND, EB_ROBUST_BLIND_SS
 from enhancers.beam.subband_eb import SubbandBase, SubbandEbParams, subband_init
+from enhancers.core.base import params_with_defaults
 from enhancers.core.chain import Chain
 from enhancers.kernels import frames as fast_frames
 from scenesim.errors import ParameterError
@@ -160,15 +160,6 @@ class EbRobustSs(Chain):
     stages = (("eb", "eb-robust"), ("ss", "ss"))
 
 
-def _with_defaults(params_cls: type, owner: str, defaults: dict) -> type:
-    """A frozen dataclass subclass of ``params_cls`` whose fields named in ``defaults`` default to those values
-    (checked by the parent's ``__post_init__``); pickled as ``<module>.<owner>.Params``."""
-    types = {f.name: f.type for f in dataclasses.fields(params_cls)}
-    namespace = {"__annotations__": {k: types[k] for k in defaults}, "__module__": __name__,
-                 "__qualname__": f"{owner}.Params", **defaults}
-    return dataclass(frozen=True)(type("Params", (params_cls,), namespace))
-
-
 class TalkerBlindRobustEb(RobustElkoBeamformer):
     """``eb-robust`` learning only where the talker is absent (``"eb-robust-blind"``, issue 16).
 
@@ -184,7 +175,7 @@ class TalkerBlindRobustEb(RobustElkoBeamformer):
     name: ClassVar[str] = "eb-robust-blind"
     version: ClassVar[str] = "1"
     summary: ClassVar[str] = "eb-robust that learns only where the talker is absent (issue 16: talker-blind)"
-    Params = _with_defaults(RobustElkoBeamformer.Params, "TalkerBlindRobustEb", EB_ROBUST_BLIND)
+    Params = params_with_defaults(RobustElkoBeamformer.Params, "TalkerBlindRobustEb", EB_ROBUST_BLIND, __name__)
 
 
 class EbRobustBlindSs(Chain):

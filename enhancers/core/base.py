@@ -87,6 +87,27 @@ class Params:
         return out
 
 
+def params_with_defaults(params_cls: type, owner: str, defaults: dict, module: str) -> type:
+    """A frozen dataclass subclass of ``params_cls`` whose fields named in ``defaults`` default to those
+    values (checked by the parent's ``__post_init__``); pickled as ``<module>.<owner>.Params``.
+
+    How a registered variant (``eb-robust-blind``, ``mvdr@1``) states what it changes: the same
+    algorithm, other defaults.
+
+    >>> @dataclass(frozen=True)
+    ... class P(Params):
+    ...     a: int = 1
+    ...     b: int = 2
+    >>> Q = params_with_defaults(P, "Variant", {"b": 5}, __name__)
+    >>> Q(), Q(b=3).b
+    (Variant.Params(a=1, b=5), 3)
+    """
+    types = {f.name: f.type for f in dataclasses.fields(params_cls)}
+    namespace = {"__annotations__": {k: types[k] for k in defaults}, "__module__": module,
+                 "__qualname__": f"{owner}.Params", **defaults}
+    return dataclass(frozen=True)(type("Params", (params_cls,), namespace))
+
+
 def unknown_parameter(key: str, value, known, owner: str | None = None) -> ParameterError:
     """The error for a parameter ``key`` that is not a field: the fields it could be, or that there are none.
 
