@@ -119,12 +119,39 @@ def test_multichannel_spp_closed_form_point():
     assert float(multichannel_spp(y, Y, V, q=0.5, loading=0.0)) == pytest.approx(1 / (1 + 2 * np.exp(-2.0)), rel=1e-12)
 
 
-@pytest.mark.parametrize("spp", ["single", "mean", "multi"])
+def test_speech_weighted_noisy_average_holds_the_talker_through_a_pause(rng):
+    # A tone 30 dB over white noise in bin k with RTF h for 2 s, then 3 s of noise alone.  Oracle: the
+    # tone's covariance P h h^H.  Weighted by p the noisy average keeps it through the pause (the GEVD's
+    # speech excess stays the talker's): only the SPP's false alarms (mean p ~0.15 in noise) update it,
+    # so the tone is still 27.3 dB over the noise after 3 s (asserted: > 24 dB) with its RTF exact;
+    # updated every frame the average loses e^-3 = 13 dB of the tone in 3 time constants (30 - 13 = 17 dB
+    # over the noise; measured 19.4, asserted: < 21 dB).
+    fb, n, k = FilterBank(), FS * 5, 40
+    t = np.arange(n) / FS
+    f_k = k * FS / fb.frame_len
+    delay = 0.0214 * np.cos(np.radians(45.0)) / C
+    amp = 2.0 * np.sqrt(1000.0 * np.sum(fb.analysis_window**2)) / np.sum(fb.analysis_window)
+    on = t < 2.0
+    tone = np.stack([np.where(on, amp * np.cos(2 * np.pi * f_k * t), 0.0),
+                     np.where(on, amp * np.cos(2 * np.pi * f_k * (t - delay)), 0.0)])
+    x = rng.standard_normal((2, n)) / np.sqrt(2.0) + tone
+    X = fb.analyze(x)
+    end = {w: noise_stats_step(X, noise_stats_init(fb.n_bins), NoiseStatsConfig(noisy_weight=w))[0].yy[-1, k]
+           for w in ("spp", "every")}
+    noise_power = np.mean(np.abs(fb.analyze(rng.standard_normal((2, n)) / np.sqrt(2.0)))[0, :, k] ** 2)
+    h = np.array([1.0, np.exp(-2j * np.pi * f_k * delay)])
+    over = {w: 10 * np.log10(np.real(v[0, 0]) / noise_power) for w, v in end.items()}
+    assert over["spp"] > 24.0 and over["every"] < 21.0, over
+    np.testing.assert_allclose(end["spp"][:, 0] / end["spp"][0, 0], h, atol=0.01)  # the tone's RTF
+
+
+@pytest.mark.parametrize(("spp", "noisy_weight"), [("single", "every"), ("mean", "every"), ("multi", "every"),
+                                                    ("single", "spp"), ("mean", "spp")])
 @pytest.mark.parametrize("cut", [1, 7, 97])
-def test_streaming_equals_batch(rng, spp, cut):
+def test_streaming_equals_batch(rng, spp, cut, noisy_weight):
     X = rng.standard_normal((2, 300, 5)) + 1j * rng.standard_normal((2, 300, 5))
     X[:, 150:] *= 5.0  # a level step: the SPP and both averages move
-    cfg = NoiseStatsConfig(spp=spp)
+    cfg = NoiseStatsConfig(spp=spp, noisy_weight=noisy_weight)
     full, _ = noise_stats_step(X, noise_stats_init(5), cfg)
     state, parts = noise_stats_init(5), []
     for i in range(0, 300, cut):
@@ -145,3 +172,7 @@ def test_bad_config_names_the_parameter():
         NoiseStatsConfig(spp="both")
     with pytest.raises(ParameterError, match="prior_absence"):
         NoiseStatsConfig(prior_absence=0.0)
+    with pytest.raises(ParameterError, match="noisy_weight"):
+        NoiseStatsConfig(noisy_weight="sometimes")
+    with pytest.raises(ParameterError, match="noisy_weight='spp'.*multi"):
+        NoiseStatsConfig(spp="multi", noisy_weight="spp")
