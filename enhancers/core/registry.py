@@ -423,6 +423,9 @@ _BUILTINS = (
     ("mvdr", "enhancers.beam.mvdr:Mvdr"),
     ("mwf", "enhancers.beam.mvdr:Mwf"),
     ("mvdr-ss", "enhancers.beam.mvdr:MvdrSs"),
+    ("mvdr", "enhancers.beam.mvdr:MvdrV1", "1"),
+    ("mwf", "enhancers.beam.mvdr:MwfV1", "1"),
+    ("mvdr-ss", "enhancers.beam.mvdr:MvdrSsV1", "1"),
     ("eb-subband", "enhancers.beam.subband_eb:SubbandElkoBeamformer"),
     ("mic-calibration", "enhancers.beam.mic_calibration:MicCalibration"),
     ("eb-robust", "enhancers.beam.robust_eb:RobustElkoBeamformer"),
@@ -432,9 +435,9 @@ _BUILTINS = (
     ("eb-spp", "enhancers.beam.spp_eb:SppElkoBeamformer"),
     ("eb-spp-ss", "enhancers.beam.spp_eb:EbSppSs"),
 )
-for _name, _target in _BUILTINS:
-    register(_name, _target)
-del _name, _target
+for _name, _target, *_version in _BUILTINS:
+    register(_name, _target, version=_version[0] if _version else None)
+del _name, _target, _version
 
 # Peers behind optional extras: registered when their package can be found (find_spec does
 # not import it), else listed with the command that installs it.
