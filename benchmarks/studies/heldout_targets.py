@@ -5,8 +5,8 @@
 
 Runs the ``phone`` preset's conditions at input SNR >= 15 dB (15, 20, 25 dB; every noise; seeds
 ``S .. S + N - 1`` of split ``--split``) through the project's runner (one worker) for the front ends
-(``eb-spp``, ``eb-robust-blind``, ``mvdr``), their ``-ss`` chains, the frozen baselines
-``eb-robust@1`` / ``eb-robust-ss@1`` and ``ss``, and prints, from the stored rows:
+(``eb-spp``, ``eb-robust-blind``, ``mvdr``, ``mwf``), their ``-ss`` chains, the frozen baselines
+``eb-robust@1`` / ``eb-robust-ss@1``, ``superdirective`` and ``ss``, and prints, from the stored rows:
 
 1. per system: the share of rows with ``speech_jitter_db <= -30`` dB and the worst row (target for a front
    end: >= 98 %, none above -20 dB; a chain ending in ``ss`` is reported beside ``ss``, not held to it),
@@ -15,7 +15,8 @@ Runs the ``phone`` preset's conditions at input SNR >= 15 dB (15, 20, 25 dB; eve
    with the lower 95 % bound (Student t, :func:`benchmarks.report.compare.paired_ci`): a front end against
    ``eb-robust@1`` and a ``-ss`` chain against ``eb-robust-ss@1``, in SNR-I (target: lower bound >= -1 dB;
    for the ``-ss`` chain also >= -0.5 dB) and in raw PESQ (``pesq_nb_out``; ``-ss`` chain: >= -0.05);
-   with ``superdirective`` among ``--systems``, ``mvdr`` / ``mwf`` against it too (target: lower bound >= 0);
+   with ``superdirective`` among ``--systems``, ``mvdr`` / ``mwf`` (any version, e.g. ``mvdr@1``) against it
+   too (target: lower bound >= 0);
 3. issue 12's mismatch loss (:func:`benchmarks.studies.robust_eb.snr_improvements`: a 1 dB / 5 deg rear
    mic against ideal mics, 135 / 240 deg babble, diffuse babble, wind; target loss <= 2 dB).
 
@@ -43,10 +44,10 @@ from benchmarks.studies.noise_stats import (
 )
 from benchmarks.studies.robust_eb import snr_improvements
 
-FRONT = ("eb-spp", "eb-robust-blind", "mvdr")
+FRONT = ("eb-spp", "eb-robust-blind", "mvdr", "mwf")
 CHAINS = ("eb-spp-ss", "eb-robust-blind-ss", "mvdr-ss")
 BASE, BASE_SS = "eb-robust@1", "eb-robust-ss@1"
-SYSTEMS = (BASE, *FRONT, BASE_SS, *CHAINS, "ss")
+SYSTEMS = (BASE, *FRONT, "superdirective", BASE_SS, *CHAINS, "ss")
 WORST_DB, AGREE_SHARE, JITTER_SHARE = -20.0, 0.95, 0.98
 MISMATCH_SYSTEMS, LOSS_DB = ("eb-spp", BASE), 2.0
 
@@ -85,8 +86,8 @@ def comparisons(systems) -> list[tuple[str, str, float, float | None]]:
     ``eb-robust@1`` (-1 dB), a ``-ss`` chain against ``eb-robust-ss@1`` (-0.5 dB, -0.05 PESQ), and the
     adaptive MVDR / MWF against the fixed ``superdirective`` (0 dB: issue 31's "not by standing still").
 
-    >>> comparisons(["eb-robust@1", "eb-spp", "mvdr", "superdirective", "ss"])
-    [('eb-spp', 'eb-robust@1', -1.0, None), ('mvdr', 'eb-robust@1', -1.0, None), ('mvdr', 'superdirective', 0.0, None)]
+    >>> comparisons(["eb-robust@1", "eb-spp", "mvdr@1", "superdirective", "ss"])
+    [('eb-spp', 'eb-robust@1', -1.0, None), ('mvdr@1', 'eb-robust@1', -1.0, None), ('mvdr@1', 'superdirective', 0.0, None)]
     """
     out = []
     for name in systems:
@@ -94,7 +95,7 @@ def comparisons(systems) -> list[tuple[str, str, float, float | None]]:
             continue
         chain = name.endswith("-ss")
         out.append((name, BASE_SS, -0.5, -0.05) if chain else (name, BASE, -1.0, None))
-        if name in ("mvdr", "mwf") and "superdirective" in systems:
+        if name.split("@")[0] in ("mvdr", "mwf") and "superdirective" in systems:
             out.append((name, "superdirective", 0.0, None))
     return out
 
