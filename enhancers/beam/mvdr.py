@@ -221,6 +221,19 @@ def _stats_config(params: _NoiseStatsParams, fs: int) -> NoiseStatsConfig:
                             noisy_weight=params.noisy_weight)
 
 
+@functools.lru_cache(maxsize=64)
+def _prior_matrix(kind: str, n_bins: int, frame_len: int, fs: int, spacing_m: float, c_mps: float):
+    # cached: the same matrix serves every streamed block of a run, not rebuilt per block
+    if kind == "none":
+        return None
+    if kind == "white":
+        return np.broadcast_to(np.eye(2, dtype=complex), (n_bins, 2, 2))
+    g = diffuse_coherence(np.arange(n_bins) * fs / frame_len, spacing_m=spacing_m, c_mps=c_mps)
+    m = np.stack([np.stack([np.ones_like(g), g], -1), np.stack([g, np.ones_like(g)], -1)], -2).astype(complex)
+    m.flags.writeable = False
+    return m
+
+
 class Mvdr(StftEnhancer):
     """Adaptive MVDR with the GEVD RTF on SPP-weighted noise statistics (see module docstring).
 
@@ -261,14 +274,8 @@ class Mvdr(StftEnhancer):
 
     def _prior_shape(self, n_bins: int, fs: int) -> np.ndarray | None:
         """The start-up prior's ``(n_bins, 2, 2)`` coherence matrix, or None (no prior)."""
-        kind = self.params.startup_prior
-        if kind == "none":
-            return None
-        if kind == "white":
-            return np.broadcast_to(np.eye(2, dtype=complex), (n_bins, 2, 2))
-        f = np.arange(n_bins) * fs / self.filterbank.frame_len
-        g = diffuse_coherence(f, spacing_m=self.params.spacing_m, c_mps=self.params.c_mps)
-        return np.stack([np.stack([np.ones_like(g), g], -1), np.stack([g, np.ones_like(g)], -1)], -2).astype(complex)
+        p = self.params
+        return _prior_matrix(p.startup_prior, n_bins, self.filterbank.frame_len, fs, p.spacing_m, p.c_mps)
 
     def _apply(self, record, X, fs):
         return np.sum(np.conj(record["weights"]) * np.moveaxis(X, 0, -1), axis=-1)[None]
